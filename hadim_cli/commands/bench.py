@@ -1,0 +1,87 @@
+"""`hadim bench`: measure how fast the parts of hadim run."""
+
+from __future__ import annotations
+
+import json
+from typing import Annotated
+
+import typer
+
+from hadim_cli.commands.common import ConfigOption, JsonOption, SetOption
+from hadim_cli.config import load_config
+
+app = typer.Typer(help="Measure how fast the parts of hadim run.", no_args_is_help=True)
+
+
+@app.command("world")
+def world(
+    actions: Annotated[int, typer.Option("--actions", "-n", min=1,
+                                         help="Random primitive actions to run.")] = 2000,
+    seed: Annotated[int, typer.Option("--seed", help="Seed of scenes and actions.")] = 0,
+    config: ConfigOption = None,
+    set_: SetOption = None,
+    json_: JsonOption = False,
+) -> None:
+    """Actions per second of the world, against raw pymunk stepping the same physics."""
+    from hadim_cli.world.bench import bench_world
+
+    cfg = load_config(config, set_ or [])
+    result = bench_world(cfg.world, actions, seed)
+    if json_:
+        typer.echo(json.dumps(result.to_dict()))
+        return
+    from rich.console import Console
+    from rich.table import Table
+
+    table = Table(title=f"world: {actions} random actions, seed {seed}, "
+                  f"{result.substeps_per_action} physics steps per action")
+    table.add_column("loop")
+    table.add_column("actions/s", justify="right")
+    table.add_column("µs/action", justify="right")
+    table.add_row("World.step (checks, physics, contacts, observation)",
+                  f"{result.actions_per_s:,.0f}", f"{1e6 / result.actions_per_s:,.0f}")
+    table.add_row("raw pymunk (physics only)", f"{result.raw_actions_per_s:,.0f}",
+                  f"{1e6 / result.raw_actions_per_s:,.0f}")
+    console = Console()
+    console.print(table)
+    console.print(f"overhead ratio (raw ÷ ours): {result.overhead_ratio:.2f}; "
+                  f"reset {1e3 * result.reset_seconds / result.episodes:.2f} ms; "
+                  f"same trajectory as raw: {result.same_trajectory}")
+
+
+@app.command("train")
+def train(
+    iterations: Annotated[int, typer.Option("--iterations", "-n", min=1,
+                                            help="Iterations of the session.")] = 4000,
+    seed: Annotated[int, typer.Option("--seed", help="Seed of the session.")] = 0,
+    block: Annotated[int, typer.Option("--block", min=1, help="Report every N iterations.")] = 500,
+    store: Annotated[bool, typer.Option("--store/--no-store", help="Also write every episode "
+                                        "and checkpoint to a temporary SQLite store.")] = False,
+    config: ConfigOption = None,
+    set_: SetOption = None,
+    json_: JsonOption = False,
+) -> None:
+    """Wall time and iterations per second of a learning session (evaluation off)."""
+    from hadim_cli.bench_train import bench_train
+
+    cfg = load_config(config, set_ or [])
+    result = bench_train(cfg, iterations, seed, block, with_store=store)
+    if json_:
+        typer.echo(json.dumps(result.to_dict()))
+        return
+    from rich.console import Console
+    from rich.table import Table
+
+    table = Table(title=f"train: {result.iterations} iterations, seed {seed}, "
+                  f"store {'on' if store else 'off'}")
+    for col in ("iterations", "seconds", "iterations/s", "affordances"):
+        table.add_column(col, justify="right")
+    for b in result.blocks:
+        table.add_row(f"{b['start']}–{b['stop']}", f"{b['seconds']:.2f}",
+                      f"{b['iterations_per_s']:.1f}", str(b["affordances"]))
+    console = Console()
+    console.print(table)
+    extra = (f"; store {result.store_s:.2f} s, {result.store_bytes / 1e6:.1f} MB"
+             if store else "")
+    console.print(f"total {result.wall_s:.1f} s, {result.iterations_per_s:.1f} iterations/s"
+                  f"{extra}")

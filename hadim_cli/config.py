@@ -1,0 +1,388 @@
+"""Configuration: frozen dataclasses loaded from TOML, validated at load.
+
+Every section is a frozen dataclass whose fields carry a docstring (the string literal that
+follows them). `load_config` reads `configs/default.toml` (or a user's file), applies repeated
+`--set section.key=value` overrides and validates; any unknown key, wrong type or impossible
+value raises `ConfigError` naming the key and what is allowed.
+"""
+
+from __future__ import annotations
+
+import ast
+import dataclasses
+import inspect
+import math
+import os
+import tomllib
+import typing
+from collections.abc import Iterable, Mapping
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+from hadim_cli.errors import ConfigError
+
+CONFIG_DIR_ENV = "HADIM_CONFIGS"
+
+
+def configs_dir() -> Path:
+    """The folder holding default.toml and tasks/ (the repository's `configs/`)."""
+    env = os.environ.get(CONFIG_DIR_ENV)
+    return Path(env) if env else Path(__file__).resolve().parents[1] / "configs"
+
+
+def _check(cond: bool, key: str, allowed: str, value: Any) -> None:
+    if not cond:
+        raise ConfigError(f"config key '{key}' = {value!r} is impossible: {allowed}")
+
+
+@dataclass(frozen=True)
+class WorldConfig:
+    """The simulated room of the paper (§3.1)."""
+
+    room_width: float = 4.0
+    """Inner width of the closed room (m)."""
+    room_height: float = 4.0
+    """Inner height of the closed room (m)."""
+    robot_radius: float = 0.15
+    """Radius of the disc-shaped robot (m)."""
+    robot_height: float = 0.3
+    """Height of the robot (m); one of its visual properties."""
+    robot_mass: float = 4.0
+    """Mass of the robot (kg)."""
+    wheel_base: float = 0.3
+    """Distance between the two wheels (m)."""
+    max_wheel_speed: float = 0.3
+    """Wheel ground speed at intensity 1 (m/s)."""
+    drive_force: float = 26.0
+    """Largest force the wheels can exert (N): above the ground friction of the heaviest green
+    object (23.1 N by default), so every one is pushable, yet close enough that a heavy load
+    slows the robot down."""
+    drive_torque: float = 6.0
+    """Largest torque the wheels can exert when turning (N·m)."""
+    action_duration: float = 0.5
+    """Simulated time one primitive action is held (s)."""
+    physics_dt: float = 1.0 / 60.0
+    """Fixed physics step (s)."""
+    n_green: int = 6
+    """Number of pushable (green) cylinders."""
+    n_red: int = 3
+    """Number of fixed (red) cylinders."""
+    object_radius_min: float = 0.08
+    """Smallest cylinder radius (m)."""
+    object_radius_max: float = 0.25
+    """Largest cylinder radius (m)."""
+    object_height_min: float = 0.1
+    """Smallest cylinder height (m)."""
+    object_height_max: float = 0.6
+    """Largest cylinder height (m)."""
+    object_density: float = 50.0
+    """Density of green cylinders (kg/m³): mass = density·π·r²·h."""
+    ground_friction: float = 0.4
+    """Coulomb coefficient μ of the ground; friction force μ·m·g."""
+    start_clearance: float = 0.5
+    """No object within this distance of the robot's start (m)."""
+    object_gap: float = 0.05
+    """Smallest free gap between two objects and between an object and a wall (m)."""
+    random_heading: bool = False
+    """Robot heading at reset drawn uniformly (True) or facing +x (False, the default: every
+    episode starts from the same pose, as the paper's robot "always starts at the centre")."""
+    lidar_rays: int = 16
+    """Number of LIDAR rays, evenly spread around the robot."""
+    lidar_range: float = 1.5
+    """LIDAR range measured from the robot's centre (m)."""
+    episode_length: int = 100
+    """Primitive actions per episode, after which the scene is drawn anew."""
+
+    def validate(self) -> None:
+        for name in (
+            "room_width", "room_height", "robot_radius", "robot_height", "robot_mass",
+            "wheel_base", "max_wheel_speed", "drive_force", "drive_torque", "action_duration",
+            "physics_dt", "object_radius_min", "object_height_min", "object_density",
+            "lidar_range",
+        ):
+            value = getattr(self, name)
+            _check(value > 0, f"world.{name}", "must be > 0", value)
+        for name in ("ground_friction", "start_clearance", "object_gap"):
+            value = getattr(self, name)
+            _check(value >= 0, f"world.{name}", "must be >= 0", value)
+        _check(self.object_radius_max >= self.object_radius_min, "world.object_radius_max",
+               f"must be >= world.object_radius_min ({self.object_radius_min})",
+               self.object_radius_max)
+        _check(self.object_height_max >= self.object_height_min, "world.object_height_max",
+               f"must be >= world.object_height_min ({self.object_height_min})",
+               self.object_height_max)
+        _check(self.physics_dt <= self.action_duration, "world.physics_dt",
+               f"must be <= world.action_duration ({self.action_duration})", self.physics_dt)
+        _check(self.n_green >= 0, "world.n_green", "must be >= 0", self.n_green)
+        _check(self.n_red >= 0, "world.n_red", "must be >= 0", self.n_red)
+        _check(self.lidar_rays >= 1, "world.lidar_rays", "must be >= 1", self.lidar_rays)
+        _check(self.episode_length >= 1, "world.episode_length", "must be >= 1",
+               self.episode_length)
+        _check(2 * self.robot_radius < min(self.room_width, self.room_height), "world.robot_radius",
+               "the robot must fit in the room", self.robot_radius)
+        self._validate_packing()
+
+    def _validate_packing(self) -> None:
+        """Refuse layouts that cannot fit: area of the largest objects against the free room."""
+        n = self.n_green + self.n_red
+        if n == 0:
+            return
+        r = self.object_radius_max + self.object_gap
+        usable_w = self.room_width - 2 * r
+        usable_h = self.room_height - 2 * r
+        _check(usable_w > 0 and usable_h > 0, "world.object_radius_max",
+               "objects of that size do not fit in the room", self.object_radius_max)
+        # A square packing of discs of radius r (gap included) is always achievable, so
+        # require it with the start clearance zone removed; random placement retries within it.
+        free = usable_w * usable_h - math.pi * (self.start_clearance + r) ** 2
+        needed = n * (2 * r) ** 2 * 1.6
+        _check(free >= needed, "world.n_green",
+               f"{n} objects of radius up to {self.object_radius_max} m do not fit in a "
+               f"{self.room_width}x{self.room_height} m room; lower the count or the radius",
+               self.n_green)
+
+
+@dataclass(frozen=True)
+class LearnerConfig:
+    """The learner of the paper (§3.2–4): exploration, models, adaptation, planning."""
+
+    sigma: float = 0.7
+    """Probability of goal babbling (vs a random controllable) once H is not empty (paper σ)."""
+    random_sequence_length: int = 8
+    """Primitive actions of one random-action learning episode (motor babbling)."""
+    k_forward: int = 10
+    """Neighbours of the forward model's local linear fit."""
+    k_inverse: int = 20
+    """Recorded outcomes the inverse model starts from."""
+    zero_eps: float = 0.004
+    """An outcome smaller than this (in its space's units) counts as null."""
+    tau_creation: float = 0.3
+    """Competence a new affordance needs to be added to H (paper τ_creation)."""
+    tau_modification: float = 0.3
+    """Competence a context change needs to be kept (paper τ_modification)."""
+    context_gain: float = 0.1
+    """A context change must also raise competence by at least this much."""
+    match_tolerance: float = 0.05
+    """New data match an affordance if its competence drops by less than this."""
+    context_review_every: int = 5
+    """Also try context changes every this many updates of an affordance, matched or not."""
+    tau_deletion: float = 0.1
+    """An affordance whose competence stays below this for `deletion_patience` updates goes."""
+    deletion_patience: int = 8
+    """Consecutive low-competence updates before an affordance is deleted."""
+    competence_sharpness: float = 20.0
+    """s in C(e) = clip((1 − e²)·exp(−s·e), 0, 1)."""
+    competence_rows: int = 300
+    """Rows a competence estimate uses at most (a seeded random subset beyond that)."""
+    creation_rows: int = 600
+    """Rows of D a creation or context trial is fitted on at most."""
+    zero_ratio: float = 1.0
+    """Null-outcome rows kept per non-null row in an affordance's data."""
+    salient_goals: float = 0.5
+    """Share of random goals in an object's position space set at another pushable object's
+    position (objects meet there: where pushing one object with another can be found)."""
+    goal_budget: int = 25
+    """Primitive actions one goal attempt may use."""
+    subgoal_budget: int = 6
+    """Primitive actions one sub-goal (a lower affordance's step) may use."""
+    reach_tolerance: float = 0.05
+    """A goal counts as reached within this fraction of its initial distance."""
+    interest_max_goals: int = 50
+    """Goals a region of an interest map holds before it splits."""
+    interest_window: int = 20
+    """Competences the learning progress of a region is computed over."""
+    interest_epsilon: float = 0.2
+    """Probability of a uniform choice (of affordance, of region) instead of by interest."""
+    classifier_hidden: int = 32
+    """Width of the two hidden layers of each visual classifier p_A."""
+    classifier_steps: int = 30
+    """Training steps of p_A after each learning episode that gave it examples."""
+
+    def validate(self) -> None:
+        for name in ("sigma", "match_tolerance", "context_gain", "interest_epsilon",
+                     "salient_goals"):
+            value = getattr(self, name)
+            _check(0.0 <= value <= 1.0, f"learner.{name}", "must be in [0, 1]", value)
+        for name in ("tau_creation", "tau_modification", "tau_deletion"):
+            value = getattr(self, name)
+            _check(0.0 <= value <= 1.0, f"learner.{name}", "must be in [0, 1]", value)
+        for name in ("random_sequence_length", "k_forward", "k_inverse", "goal_budget",
+                     "subgoal_budget", "interest_window", "classifier_hidden",
+                     "classifier_steps", "deletion_patience", "context_review_every"):
+            value = getattr(self, name)
+            _check(value >= 1, f"learner.{name}", "must be >= 1", value)
+        _check(self.interest_max_goals >= 2, "learner.interest_max_goals", "must be >= 2",
+               self.interest_max_goals)
+        _check(self.competence_rows >= 20, "learner.competence_rows", "must be >= 20",
+               self.competence_rows)
+        _check(self.creation_rows >= 20, "learner.creation_rows", "must be >= 20",
+               self.creation_rows)
+        for name in ("zero_eps", "competence_sharpness", "zero_ratio", "reach_tolerance"):
+            value = getattr(self, name)
+            _check(value > 0, f"learner.{name}", "must be > 0", value)
+
+
+@dataclass(frozen=True)
+class EvaluationConfig:
+    """Periodic evaluation during training (paper §5.1, Fig. 2)."""
+
+    every: int = 200
+    """Evaluate every this many iterations (a multiple of the episode length); 0 = never."""
+    tasks: tuple[str, ...] = ("move-robot", "push-object", "push-with-tool")
+    """Tasks (files in configs/tasks/) evaluated periodically."""
+
+    def validate(self) -> None:
+        _check(self.every >= 0, "evaluation.every", "must be >= 0 (0 disables)", self.every)
+
+
+@dataclass(frozen=True)
+class Config:
+    """The whole resolved configuration of a run."""
+
+    world: WorldConfig = field(default_factory=WorldConfig)
+    """The simulated room."""
+    learner: LearnerConfig = field(default_factory=LearnerConfig)
+    """The affordance learner."""
+    evaluation: EvaluationConfig = field(default_factory=EvaluationConfig)
+    """Periodic evaluation."""
+
+    def validate(self) -> None:
+        for f in dataclasses.fields(self):
+            getattr(self, f.name).validate()
+        every, length = self.evaluation.every, self.world.episode_length
+        _check(every % length == 0, "evaluation.every",
+               f"must be a multiple of world.episode_length ({length})", every)
+
+    def to_dict(self) -> dict[str, dict[str, Any]]:
+        return dataclasses.asdict(self)
+
+
+# --------------------------------------------------------------------------- loading
+
+def field_docs(cls: type) -> dict[str, str]:
+    """The docstring following each field of a dataclass, read from its source."""
+    try:
+        tree = ast.parse(inspect.getsource(cls))
+    except (OSError, TypeError):
+        return {}
+    body = tree.body[0].body  # type: ignore[attr-defined]
+    docs: dict[str, str] = {}
+    for stmt, nxt in zip(body, body[1:], strict=False):
+        if (isinstance(stmt, ast.AnnAssign) and isinstance(stmt.target, ast.Name)
+                and isinstance(nxt, ast.Expr) and isinstance(nxt.value, ast.Constant)
+                and isinstance(nxt.value.value, str)):
+            docs[stmt.target.id] = nxt.value.value
+    return docs
+
+
+def _coerce(key: str, value: Any, annotation: Any) -> Any:
+    """Check a TOML value against a field's type; ints are accepted for floats."""
+    kind = annotation if isinstance(annotation, type) else typing.get_origin(annotation)
+    if kind is float:
+        if isinstance(value, bool) or not isinstance(value, int | float):
+            raise ConfigError(f"config key '{key}' must be a number, got {value!r}")
+        value = float(value)
+        if not math.isfinite(value):
+            raise ConfigError(f"config key '{key}' must be finite, got {value!r}")
+        return value
+    if kind is bool:
+        if not isinstance(value, bool):
+            raise ConfigError(f"config key '{key}' must be true or false, got {value!r}")
+        return value
+    if kind is int:
+        if isinstance(value, bool) or not isinstance(value, int):
+            raise ConfigError(f"config key '{key}' must be an integer, got {value!r}")
+        return value
+    if kind is str:
+        if not isinstance(value, str):
+            raise ConfigError(f"config key '{key}' must be a string, got {value!r}")
+        return value
+    if kind is tuple:
+        (item,) = {a for a in typing.get_args(annotation) if a is not Ellipsis}
+        if not isinstance(value, list | tuple):
+            raise ConfigError(f"config key '{key}' must be a list, got {value!r}")
+        return tuple(_coerce(key, v, item) for v in value)
+    raise ConfigError(f"config key '{key}' has an unsupported type {annotation!r}")
+
+
+def _build(cls: type, values: Mapping[str, Any], prefix: str) -> Any:
+    hints = typing.get_type_hints(cls)
+    names = {f.name for f in dataclasses.fields(cls)}
+    kwargs: dict[str, Any] = {}
+    for key, value in values.items():
+        full = f"{prefix}{key}"
+        if key not in names:
+            allowed = ", ".join(sorted(names))
+            raise ConfigError(f"unknown config key '{full}' (allowed: {allowed})")
+        hint = hints[key]
+        if dataclasses.is_dataclass(hint):
+            if not isinstance(value, Mapping):
+                raise ConfigError(f"config key '{full}' must be a table [{full}]")
+            kwargs[key] = _build(hint, value, f"{full}.")
+        else:
+            kwargs[key] = _coerce(full, value, hint)
+    return cls(**kwargs)
+
+
+def _merge(base: dict[str, Any], extra: Mapping[str, Any]) -> dict[str, Any]:
+    out = dict(base)
+    for key, value in extra.items():
+        if isinstance(value, Mapping) and isinstance(out.get(key), Mapping):
+            out[key] = _merge(out[key], value)
+        else:
+            out[key] = value
+    return out
+
+
+def parse_override(text: str) -> dict[str, Any]:
+    """`section.key=value` → nested dict; the value is read as TOML, else as a string."""
+    if "=" not in text:
+        raise ConfigError(f"override '{text}' must look like section.key=value")
+    dotted, raw = text.split("=", 1)
+    parts = [p.strip() for p in dotted.strip().split(".")]
+    if not all(parts):
+        raise ConfigError(f"override '{text}' must look like section.key=value")
+    try:
+        value = tomllib.loads(f"v = {raw.strip()}")["v"]
+    except tomllib.TOMLDecodeError:
+        value = raw.strip()
+    nested: dict[str, Any] = {parts[-1]: value}
+    for part in reversed(parts[:-1]):
+        nested = {part: nested}
+    return nested
+
+
+def read_toml(path: Path) -> dict[str, Any]:
+    try:
+        with path.open("rb") as fh:
+            return tomllib.load(fh)
+    except FileNotFoundError:
+        raise ConfigError(f"config file not found: {path}") from None
+    except tomllib.TOMLDecodeError as exc:
+        raise ConfigError(f"config file {path} is not valid TOML: {exc}") from None
+
+
+def config_from_dict(values: Mapping[str, Any]) -> Config:
+    """Build and validate a Config from nested plain values (e.g. a stored run's config)."""
+    config = _build(Config, values, "")
+    config.validate()
+    return config
+
+
+def load_config(path: Path | None = None, overrides: Iterable[str] = ()) -> Config:
+    """The defaults, then `path` (a TOML file), then each `section.key=value` override."""
+    values = read_toml(configs_dir() / "default.toml")
+    if path is not None:
+        values = _merge(values, read_toml(Path(path)))
+    for text in overrides:
+        values = _merge(values, parse_override(text))
+    return config_from_dict(values)
+
+
+def with_overrides(config: Config, overrides: Iterable[str]) -> Config:
+    """A copy of `config` with `section.key=value` overrides applied and validated."""
+    values: dict[str, Any] = config.to_dict()
+    for text in overrides:
+        values = _merge(values, parse_override(text))
+    return config_from_dict(values)

@@ -1,0 +1,23 @@
+"""The evaluation metric of the paper (§5.1), as pure functions."""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+
+import numpy as np
+
+
+def point_error(start: Sequence[float], final: Sequence[float], target: Sequence[float]) -> float:
+    """min(1, final distance / initial distance): 0 reached, 1 no progress (or worse)."""
+    initial = float(np.linalg.norm(np.subtract(target, start)))
+    final_d = float(np.linalg.norm(np.subtract(target, final)))
+    if initial <= 1e-9:
+        return 0.0 if final_d <= 1e-9 else 1.0
+    return min(1.0, final_d / initial)
+
+
+def task_score(errors: Sequence[float]) -> float:
+    """1 − mean(error_i): doing nothing scores 0, reaching every point scores 1."""
+    if len(errors) == 0:
+        raise ValueError("a task needs at least one point")
+    return 1.0 - float(np.mean(errors))

@@ -1,0 +1,117 @@
+"""Evaluation tasks (paper §5.1): a scene, the entity and property to drive, target points.
+
+A task is a TOML file in `configs/tasks/` (or a user's own file passed with `--points`).
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Mapping
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+from hadim_cli.config import configs_dir, read_toml
+from hadim_cli.errors import HadimError
+from hadim_cli.world.layout import Shape
+from hadim_cli.world.scene import ObjectSpec, Scene
+
+
+@dataclass(frozen=True)
+class Task:
+    """Drive `entity.property` to each point, from the task's scene, within `budget` actions."""
+
+    name: str
+    description: str
+    entity: str
+    """'robot', or 'target' (the object named by `target`)."""
+    prop: str
+    points: tuple[tuple[float, float], ...]
+    budget: int
+    scene: Scene
+    target: str | None = None
+    tool: str | None = None
+    """With a tool, any robot–target contact during a point's attempt fails the point."""
+
+
+def task_names() -> list[str]:
+    return sorted(p.stem for p in (configs_dir() / "tasks").glob("*.toml"))
+
+
+def load_task(name: str) -> Task:
+    path = configs_dir() / "tasks" / f"{name}.toml"
+    if not path.is_file():
+        raise HadimError(f"unknown task '{name}' (known: {', '.join(task_names())})")
+    return parse_task(read_toml(path), str(path))
+
+
+def load_task_file(path: Path) -> Task:
+    if not Path(path).is_file():
+        raise HadimError(f"task file not found: {path}")
+    return parse_task(read_toml(Path(path)), str(path))
+
+
+def _need(values: Mapping[str, Any], key: str, where: str) -> Any:
+    if key not in values:
+        raise HadimError(f"task file {where}: missing key '{key}'")
+    return values[key]
+
+
+def _number(value: Any, key: str, where: str) -> float:
+    if isinstance(value, bool) or not isinstance(value, int | float) or not math.isfinite(value):
+        raise HadimError(f"task file {where}: '{key}' must be a finite number, got {value!r}")
+    return float(value)
+
+
+def _pair(value: Any, key: str, where: str) -> tuple[float, float]:
+    if not isinstance(value, list | tuple) or len(value) != 2:
+        raise HadimError(f"task file {where}: '{key}' must be a pair [x, y], got {value!r}")
+    return (_number(value[0], key, where), _number(value[1], key, where))
+
+
+def _object(raw: Mapping[str, Any], where: str) -> ObjectSpec:
+    color = _need(raw, "color", where)
+    if not isinstance(color, list) or len(color) != 3:
+        raise HadimError(f"task file {where}: object color must be [r, g, b]")
+    radius = _number(_need(raw, "radius", where), "radius", where)
+    height = _number(_need(raw, "height", where), "height", where)
+    if radius <= 0 or height <= 0:
+        raise HadimError(f"task file {where}: object radius and height must be > 0")
+    return ObjectSpec(
+        x=_number(_need(raw, "x", where), "x", where),
+        y=_number(_need(raw, "y", where), "y", where),
+        radius=radius, height=height,
+        color=tuple(_number(c, "color", where) for c in color),  # type: ignore[arg-type]
+        pushable=bool(_need(raw, "pushable", where)), shape=Shape.CYLINDER,
+    )
+
+
+def parse_task(values: Mapping[str, Any], where: str) -> Task:
+    known = {"name", "description", "entity", "property", "points", "budget", "scene", "target",
+             "tool"}
+    unknown = sorted(set(values) - known)
+    if unknown:
+        raise HadimError(f"task file {where}: unknown key '{unknown[0]}' "
+                         f"(allowed: {', '.join(sorted(known))})")
+    entity = _need(values, "entity", where)
+    if entity not in ("robot", "target"):
+        raise HadimError(f"task file {where}: entity must be 'robot' or 'target', got {entity!r}")
+    if _need(values, "property", where) != "position":
+        raise HadimError(f"task file {where}: only property = 'position' is supported")
+    points = tuple(_pair(p, "points", where) for p in _need(values, "points", where))
+    if not points:
+        raise HadimError(f"task file {where}: 'points' is empty")
+    budget = _need(values, "budget", where)
+    if isinstance(budget, bool) or not isinstance(budget, int) or budget < 1:
+        raise HadimError(f"task file {where}: 'budget' must be an integer >= 1")
+    scene_raw = _need(values, "scene", where)
+    robot = scene_raw.get("robot", [0.0, 0.0, 0.0])
+    if not isinstance(robot, list) or len(robot) != 3:
+        raise HadimError(f"task file {where}: scene.robot must be [x, y, heading]")
+    objects = tuple(_object(o, where) for o in scene_raw.get("objects", []))
+    scene = Scene(objects, *(_number(v, "scene.robot", where) for v in robot))
+    target, tool = values.get("target"), values.get("tool")
+    if entity == "target" and not target:
+        raise HadimError(f"task file {where}: entity 'target' needs target = \"objN\"")
+    return Task(str(values.get("name", Path(where).stem)), str(values.get("description", "")),
+                entity, "position", points, budget, scene, target, tool)

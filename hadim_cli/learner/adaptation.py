@@ -1,0 +1,256 @@
+"""Autonomous affordance adaptation (paper Algorithm 2), run after each learning episode.
+
+For each space whose outcome was non-null during the episode (in random order): every
+affordance predicting that space takes the episode's rows; if they lower its competence by more
+than `match_tolerance` (they do not *match*), context changes are tried — adding, replacing or
+removing one context space — and the best is kept when its competence reaches τ_modification
+and improves by `context_gain`. Then new affordances are tried for the space with every
+candidate input (A ∪ Ω_controllable) not yet used for it, with no context or the best single
+context (kept only if it gains `context_gain` over none); the best reaching τ_creation joins H.
+p_A of each affordance is trained on the objects that responded (positives) and those it was
+applied to that did not (negatives).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from hadim_cli.config import LearnerConfig
+from hadim_cli.learner.affordance import Affordance, Fitter, Sample, typical_step
+from hadim_cli.learner.hierarchy import Event, EventKind, Hierarchy
+from hadim_cli.learner.spaces import (
+    OUTPUT_SPACES,
+    RoleSpace,
+    Rows,
+    context_candidates,
+)
+
+
+@dataclass
+class CreationBackoff:
+    """Failed creation trials of (input, output) wait 1, 2, 4 … 16 learning episodes."""
+
+    next_try: dict[str, int] = field(default_factory=dict)
+    wait: dict[str, int] = field(default_factory=dict)
+
+    @staticmethod
+    def key(inp: RoleSpace, out: RoleSpace) -> str:
+        return f"{inp.name}>{out.name}"
+
+    def ready(self, inp: RoleSpace, out: RoleSpace, episode: int) -> bool:
+        return self.next_try.get(self.key(inp, out), 0) <= episode
+
+    def failed(self, inp: RoleSpace, out: RoleSpace, episode: int) -> None:
+        key = self.key(inp, out)
+        wait = min(16, 2 * self.wait.get(key, 1))
+        self.wait[key] = wait
+        self.next_try[key] = episode + wait
+
+
+class Adaptation:
+    """Runs Algorithm 2 over H after each learning episode."""
+
+    def __init__(self, hierarchy: Hierarchy, fitter: Fitter, config: LearnerConfig):
+        self.h = hierarchy
+        self.fitter = fitter
+        self.config = config
+        self.backoff = CreationBackoff()
+
+    def non_null_spaces(self, t: np.ndarray) -> list[RoleSpace]:
+        out = []
+        for space in OUTPUT_SPACES:
+            rows = self.fitter.bindings(space.roles, t)
+            y = self.fitter.reader.read(space, self.fitter.dataset.outcomes, rows)
+            if self.fitter.nonzero(y).any():
+                out.append(space)
+        return out
+
+    def run(self, t0: int, t1: int, iteration: int, episode: int,
+            rng: np.random.Generator) -> list[Event]:
+        """Adapt H to the learning episode made of iterations [t0, t1)."""
+        start = len(self.h.events)
+        t = np.arange(t0, t1, dtype=np.int64)
+        spaces = self.non_null_spaces(t)
+        for i in rng.permutation(len(spaces)):
+            space = spaces[int(i)]
+            for aff in self.h.with_output(space):
+                self._update(aff, t, iteration, rng)
+            self._try_create(space, iteration, episode, rng)
+        self._delete_false(iteration)
+        return self.h.events[start:]
+
+    # ------------------------------------------------------------------ existing affordances
+    def _accept_mask(self, aff: Affordance, sample: Sample) -> np.ndarray | None:
+        if aff.classifier is None or aff.classifier.n_positive == 0:
+            return None
+        return aff.classifier.accepts(self.fitter.target_features(sample.rows))
+
+    def _update(self, aff: Affordance, t: np.ndarray, iteration: int,
+                rng: np.random.Generator) -> None:
+        f = self.fitter
+        sample = f.candidate_rows(aff.input, aff.output, t)
+        if len(sample.rows) == 0:
+            return
+        self._train_classifier(aff, sample, rng)
+        rows = f.select_rows(sample, rng, self._accept_mask(aff, sample))
+        if len(rows) == 0:
+            return
+        before = aff.competence
+        s = f.values(aff.input, aff.output, aff.contexts, rows)
+        aff.model.add(s.x, s.c, s.y)
+        aff.rows = aff.rows.concat(rows)
+        aff.competence = f.competence(aff.model, rng)
+        matched = aff.competence >= before - self.config.match_tolerance
+        review = len(aff.history) % self.config.context_review_every == 0
+        if not matched or review:
+            self._adapt_context(aff, iteration, rng)
+        aff.history.append((iteration, aff.competence))
+        low = aff.competence < self.config.tau_deletion
+        aff.low_streak = aff.low_streak + 1 if low else 0
+
+    def _context_options(self, aff: Affordance) -> list[tuple[EventKind, tuple[RoleSpace, ...],
+                                                            dict[str, str]]]:
+        roles = aff.input.roles | aff.output.roles
+        current = aff.contexts
+        candidates = [c for c in context_candidates(roles) if c not in current]
+        options: list[tuple[EventKind, tuple[RoleSpace, ...], dict[str, str]]] = []
+        for c in candidates:
+            options.append((EventKind.CONTEXT_ADDED, (*current, c), {"added": c.name}))
+        if len(current) >= 2:
+            # Restarts from one context let the search leave a local optimum that needs two
+            # single changes, each too small to pass `context_gain` on its own.
+            for c in context_candidates(roles):
+                options.append((EventKind.CONTEXT_REPLACED, (c,),
+                                {"removed": ", ".join(x.name for x in current if x != c),
+                                 "added": "" if c in current else c.name}))
+        for old in current:
+            rest = tuple(x for x in current if x != old)
+            options.append((EventKind.CONTEXT_REMOVED, rest, {"removed": old.name}))
+            for c in candidates:
+                options.append((EventKind.CONTEXT_REPLACED, (*rest, c),
+                                {"removed": old.name, "added": c.name}))
+        return options
+
+    def _subsample(self, rows: Rows, rng: np.random.Generator) -> Rows:
+        n = self.config.creation_rows
+        if len(rows) <= n:
+            return rows
+        return rows.take(np.sort(rng.choice(len(rows), size=n, replace=False)))
+
+    def _adapt_context(self, aff: Affordance, iteration: int, rng: np.random.Generator) -> None:
+        f, cfg = self.fitter, self.config
+        rows = self._subsample(aff.rows, rng)
+        seed = int(rng.integers(2**63 - 1))
+
+        def score(contexts: tuple[RoleSpace, ...]) -> float:
+            return f.trial(aff.input, aff.output, contexts, rows, np.random.default_rng(seed))
+
+        baseline = score(aff.contexts)
+        best: tuple[float, EventKind, tuple[RoleSpace, ...], dict[str, str]] | None = None
+        for kind, contexts, detail in self._context_options(aff):
+            value = score(contexts)
+            if best is None or value > best[0]:
+                best = (value, kind, contexts, detail)
+        if best is None:
+            return
+        value, kind, contexts, detail = best
+        if value < cfg.tau_modification or value < baseline + cfg.context_gain:
+            return
+        aff.contexts = tuple(contexts)
+        aff.model = f.fit(aff.input, aff.output, aff.contexts, aff.rows)
+        aff.competence = f.competence(aff.model, rng)
+        self.h.record(aff, kind, iteration, **detail)
+
+    def _train_classifier(self, aff: Affordance, sample: Sample,
+                          rng: np.random.Generator) -> None:
+        """Positives: targets that moved. Negatives: targets A predicted to move that did not,
+        and the entity the affordance acts from (the robot cannot push itself)."""
+        if aff.classifier is None:
+            return
+        f = self.fitter
+        moved = f.nonzero(sample.y)
+        negative = np.zeros_like(moved)
+        if aff.model.n >= 3 and (~moved).any():
+            idx = np.flatnonzero(~moved)
+            full = f.values(aff.input, aff.output, aff.contexts, sample.rows.take(idx))
+            predicted = np.linalg.norm(aff.model.predict(full.x, full.c), axis=1)
+            # Only a clear predicted effect that did not happen makes a negative: the model's
+            # small errors must not teach p_A that pushable objects are not.
+            negative[idx] = predicted > max(0.25 * typical_step(aff), 2 * self.config.zero_eps)
+        pick = moved | negative
+        if not pick.any():
+            return
+        rows = sample.rows.take(np.flatnonzero(pick))
+        features = f.target_features(rows)
+        labels = moved[pick]
+        # One example per (entity, label) per episode keeps the replay balanced across objects.
+        _, first = np.unique(np.stack([rows.target, labels.astype(np.int64)], axis=1), axis=0,
+                             return_index=True)
+        first = np.sort(first)
+        features, labels = features[first], labels[first]
+        robot = f.target_features(rows.take(np.zeros(1, dtype=np.int64)),
+                                  entity=np.zeros(1, dtype=np.int64))
+        features = np.concatenate([features, robot])
+        labels = np.concatenate([labels, [False]])
+        aff.classifier.add(features, labels)
+        aff.classifier.train(rng, steps=self.config.classifier_steps)
+
+    # ------------------------------------------------------------------ creation and deletion
+    def _creation_rows(self, inp: RoleSpace, out: RoleSpace, rng: np.random.Generator) -> Rows:
+        f = self.fitter
+        t = np.arange(len(f.dataset), dtype=np.int64)
+        sample = f.candidate_rows(inp, out, t)
+        rows = f.select_rows(sample, rng)
+        return self._subsample(rows, rng)
+
+    def _best_candidate(self, inp: RoleSpace, out: RoleSpace, rows: Rows,
+                        rng: np.random.Generator) -> tuple[float, tuple[RoleSpace, ...]]:
+        f = self.fitter
+        seed = int(rng.integers(2**63 - 1))
+
+        def score(contexts: tuple[RoleSpace, ...]) -> float:
+            return f.trial(inp, out, contexts, rows, np.random.default_rng(seed))
+
+        bare = score(())
+        best = (bare, ())
+        for c in context_candidates(inp.roles | out.roles):
+            value = score((c,))
+            if value > best[0]:
+                best = (value, (c,))
+        # A context must earn its place as in a context change: by `context_gain` over none.
+        gain = best[0] - bare
+        if best[1] and bare >= self.config.tau_creation and gain < self.config.context_gain:
+            return bare, ()
+        return best
+
+    def _try_create(self, out: RoleSpace, iteration: int, episode: int,
+                    rng: np.random.Generator) -> None:
+        best: tuple[float, RoleSpace, tuple[RoleSpace, ...], Rows] | None = None
+        for inp in self.h.candidate_inputs(out):
+            if not self.backoff.ready(inp, out, episode):
+                continue
+            rows = self._creation_rows(inp, out, rng)
+            nonzero = self.fitter.nonzero(self.fitter.values(inp, out, (), rows).y).sum()
+            if nonzero < 5:
+                self.backoff.failed(inp, out, episode)
+                continue
+            value, contexts = self._best_candidate(inp, out, rows, rng)
+            if value < self.config.tau_creation:
+                self.backoff.failed(inp, out, episode)
+                continue
+            if best is None or value > best[0]:
+                best = (value, inp, contexts, rows)
+        if best is None:
+            return
+        _, inp, contexts, rows = best
+        aff = self.fitter.new_affordance(self.h.allocate_id(), inp, out, contexts, rows,
+                                         iteration, rng)
+        self.h.add(aff, iteration)
+
+    def _delete_false(self, iteration: int) -> None:
+        for aff in list(self.h):
+            if aff.low_streak >= self.config.deletion_patience and self.h.deletable(aff):
+                self.h.delete(aff, iteration)
+

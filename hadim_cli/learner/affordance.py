@@ -1,0 +1,227 @@
+"""Affordances A(C_i, Ω_j, Ω̃_k): spaces, training rows, models, competence, interest, p_A.
+
+An affordance's data are *rows* of D (an iteration and a binding of its roles); its models are
+fitted on the values its spaces take at those rows. Keeping rows rather than copies makes a
+context change a refit over the same rows, and a checkpoint a list of integers.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from hadim_cli.config import LearnerConfig
+from hadim_cli.learner.classifier import VisualClassifier
+from hadim_cli.learner.competence import model_competence, range_scale
+from hadim_cli.learner.dataset import Dataset
+from hadim_cli.learner.interest import InterestMap
+from hadim_cli.learner.models import LocalLinearModel
+from hadim_cli.learner.spaces import ACTION, Role, RoleSpace, Rows, SpaceReader, space_dim
+from hadim_cli.world.layout import ROBOT, VISUAL_PROPERTIES, Property
+
+CONTACT_MARGIN = 0.02
+"""Bodies closer than the sum of their radii plus this (m) are taken to be in contact."""
+
+
+@dataclass
+class Affordance:
+    """One affordance of H with its models, data, competence history, interest map and p_A."""
+
+    id: int
+    input: RoleSpace
+    output: RoleSpace
+    contexts: tuple[RoleSpace, ...]
+    created_at: int
+    rows: Rows
+    model: LocalLinearModel
+    interest: InterestMap
+    classifier: VisualClassifier | None
+    competence: float = 0.0
+    history: list[tuple[int, float]] = field(default_factory=list)
+    low_streak: int = 0
+
+    @property
+    def roles(self) -> frozenset[Role]:
+        out = self.input.roles | self.output.roles
+        for c in self.contexts:
+            out |= c.roles
+        return out
+
+    @property
+    def has_target(self) -> bool:
+        return Role.TARGET in self.roles
+
+    @property
+    def has_tool(self) -> bool:
+        return Role.TOOL in self.roles
+
+    def describe(self) -> str:
+        ctx = ", ".join(c.name for c in self.contexts) or "∅"
+        return f"A{self.id}({self.input.name} → {self.output.name} | {ctx})"
+
+
+@dataclass(frozen=True)
+class Sample:
+    """Rows with the values of an affordance's spaces at them."""
+
+    rows: Rows
+    x: np.ndarray
+    c: np.ndarray
+    y: np.ndarray
+
+    def take(self, idx: np.ndarray) -> Sample:
+        return Sample(self.rows.take(idx), self.x[idx], self.c[idx], self.y[idx])
+
+
+def typical_step(aff: Affordance, quantile: float = 0.9, zero_eps: float = 1e-9) -> float:
+    """A high quantile of the norms of an affordance's non-null outcomes: one step of it."""
+    _, _, y = aff.model.data()
+    norms = np.linalg.norm(y, axis=1)
+    norms = norms[norms > zero_eps]
+    return float(np.quantile(norms, quantile)) if norms.size else 0.05
+
+
+def output_bounds(space: RoleSpace, reader: SpaceReader) -> tuple[np.ndarray, np.ndarray]:
+    """Bounds of the absolute values of an output space: the goal space of its interest map."""
+    entity = ROBOT if space.role is Role.ROBOT else reader.layout.objects[0]
+    spec = reader.layout.space(entity, space.prop or Property.POSITION)
+    return np.asarray(spec.low, dtype=float), np.asarray(spec.high, dtype=float)
+
+
+class Fitter:
+    """Builds the rows, models and competences of affordances over the dataset D."""
+
+    def __init__(self, dataset: Dataset, reader: SpaceReader, config: LearnerConfig):
+        self.dataset = dataset
+        self.reader = reader
+        self.config = config
+        self.n_entities = len(reader.layout.entities)
+
+    # ------------------------------------------------------------------ rows and values
+    def bindings(self, roles: frozenset[Role], t: np.ndarray) -> Rows:
+        """Every binding of `roles` to objects, at every iteration of `t`."""
+        objects = np.arange(1, self.n_entities, dtype=np.int64)
+        minus = np.full(1, -1, dtype=np.int64)
+        targets = objects if Role.TARGET in roles else minus
+        tools = objects if Role.TOOL in roles else minus
+        tg, tl = np.meshgrid(targets, tools, indexing="ij")
+        keep = (tg != tl) | (tg < 0)
+        tg, tl = tg[keep], tl[keep]
+        n_b = tg.shape[0]
+        return Rows(np.repeat(t, n_b), np.tile(tg, t.shape[0]), np.tile(tl, t.shape[0]))
+
+    def values(self, inp: RoleSpace, out: RoleSpace, contexts: tuple[RoleSpace, ...],
+               rows: Rows) -> Sample:
+        d = self.dataset
+        x = self.reader.read(inp, d.outcomes, rows, d.actions)
+        c = self.reader.read_many(contexts, d.contexts, rows)
+        y = self.reader.read(out, d.outcomes, rows)
+        return Sample(rows, x, c, y)
+
+    def candidate_rows(self, inp: RoleSpace, out: RoleSpace, t: np.ndarray) -> Sample:
+        """Rows of iterations `t` in the domain of (inp → out): the input actually changed."""
+        roles = inp.roles | out.roles
+        rows = self.bindings(roles, t)
+        sample = self.values(inp, out, (), rows)
+        if inp is not ACTION:
+            moved = np.linalg.norm(sample.x, axis=1) > self.config.zero_eps
+            sample = sample.take(np.flatnonzero(moved))
+        if Role.TOOL in roles:
+            # Through a tool means not by the robot's own body: a target the robot touches is
+            # the direct pushing affordance's outcome, and would hide the tool's relation.
+            sample = sample.take(np.flatnonzero(~self.touching_robot(sample.rows)))
+        return sample
+
+    def touching_robot(self, rows: Rows) -> np.ndarray:
+        """Rows whose target is in contact with the robot before or after the action."""
+        d = self.dataset
+        rel = RoleSpace(Role.TARGET, Property.POSITION, Role.ROBOT)
+        before = self.reader.read(rel, d.contexts, rows)
+        after = before + self.reader.read(rel, d.outcomes, rows)
+        reach = (self.reader.read(RoleSpace(Role.TARGET, Property.RADIUS), d.contexts, rows)[:, 0]
+                 + self.reader.read(RoleSpace(Role.ROBOT, Property.RADIUS), d.contexts, rows)[:, 0]
+                 + CONTACT_MARGIN)
+        return ((np.linalg.norm(before, axis=1) <= reach)
+                | (np.linalg.norm(after, axis=1) <= reach))
+
+    def nonzero(self, y: np.ndarray) -> np.ndarray:
+        return np.linalg.norm(y, axis=1) > self.config.zero_eps
+
+    def select_rows(self, sample: Sample, rng: np.random.Generator,
+                    accept: np.ndarray | None = None) -> Rows:
+        """All non-null rows and a bounded random share of null ones (p_A-accepted targets)."""
+        nz = self.nonzero(sample.y)
+        zero_idx = np.flatnonzero(~nz & (accept if accept is not None else True))
+        n_keep = min(zero_idx.size, max(4, int(np.ceil(self.config.zero_ratio * nz.sum()))))
+        if n_keep < zero_idx.size:
+            zero_idx = np.sort(rng.choice(zero_idx, size=n_keep, replace=False))
+        idx = np.sort(np.concatenate([np.flatnonzero(nz), zero_idx]))
+        return sample.rows.take(idx)
+
+    def target_features(self, rows: Rows, entity: np.ndarray | None = None) -> np.ndarray:
+        """Normalised visual properties of each row's target (or of `entity`): p_A's input."""
+        d = self.dataset
+        ent = rows.target if entity is None else entity
+        probe = Rows(rows.t, ent, rows.tool)
+        parts = []
+        for prop in VISUAL_PROPERTIES:
+            space = RoleSpace(Role.TARGET, prop)
+            spec = self.reader.layout.space(ROBOT, prop)
+            high = np.maximum(np.asarray(spec.high, dtype=float), 1e-9)
+            parts.append(self.reader.read(space, d.contexts, probe) / high)
+        return np.concatenate(parts, axis=1)
+
+    # ------------------------------------------------------------------ models
+    def new_model(self, inp: RoleSpace, out: RoleSpace,
+                  contexts: tuple[RoleSpace, ...]) -> LocalLinearModel:
+        layout = self.reader.layout
+        low = np.array([-1.0, -1.0]) if inp is ACTION else None
+        high = np.array([1.0, 1.0]) if inp is ACTION else None
+        return LocalLinearModel(
+            space_dim(inp, layout), space_dim(out, layout),
+            [space_dim(c, layout) for c in contexts],
+            k_forward=self.config.k_forward, k_inverse=self.config.k_inverse,
+            x_low=low, x_high=high,
+        )
+
+    def fit(self, inp: RoleSpace, out: RoleSpace, contexts: tuple[RoleSpace, ...],
+            rows: Rows) -> LocalLinearModel:
+        model = self.new_model(inp, out, contexts)
+        if len(rows):
+            s = self.values(inp, out, contexts, rows)
+            model.add(s.x, s.c, s.y)
+        return model
+
+    def competence(self, model: LocalLinearModel, rng: np.random.Generator) -> float:
+        if model.n < 3:
+            return 0.0
+        # Errors relative to the width of the output's range: C(e) of the authors expects e of
+        # a few percent for a good model (see docs/algorithm.md).
+        scale = range_scale(model.data()[2], self.config.zero_eps)
+        report = model_competence(model, zero_eps=self.config.zero_eps,
+                                  sharpness=self.config.competence_sharpness,
+                                  max_rows=self.config.competence_rows, rng=rng, scale=scale)
+        return float(report.competence)
+
+    def trial(self, inp: RoleSpace, out: RoleSpace, contexts: tuple[RoleSpace, ...],
+              rows: Rows, rng: np.random.Generator) -> float:
+        """Competence of a candidate affordance fitted on `rows`."""
+        return self.competence(self.fit(inp, out, contexts, rows), rng)
+
+    def new_affordance(self, aid: int, inp: RoleSpace, out: RoleSpace,
+                       contexts: tuple[RoleSpace, ...], rows: Rows, iteration: int,
+                       rng: np.random.Generator) -> Affordance:
+        low, high = output_bounds(out, self.reader)
+        cfg = self.config
+        interest = InterestMap(low, high, max_goals_per_region=cfg.interest_max_goals,
+                               window=cfg.interest_window)
+        classifier = None
+        if Role.TARGET in (inp.roles | out.roles):
+            n_features = self.target_features(Rows.empty()).shape[1]
+            classifier = VisualClassifier(n_features, hidden=cfg.classifier_hidden, rng=rng)
+        model = self.fit(inp, out, contexts, rows)
+        aff = Affordance(aid, inp, out, contexts, iteration, rows, model, interest, classifier)
+        aff.competence = self.competence(model, rng)
+        aff.history.append((iteration, aff.competence))
+        return aff

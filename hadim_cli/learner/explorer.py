@@ -1,0 +1,175 @@
+"""The learner and its exploration loop (paper Algorithm 1).
+
+A *learning episode* is one pass of Algorithm 1: with probability σ (once H is not empty) goal
+babbling — AffordanceSelection, GoalSelection, ObjectSelection, Plan — otherwise a random value
+in a random controllable space; then the executed actions are adapted to (Algorithm 2). An
+*environment episode* (100 primitive actions) holds several learning episodes; the world is
+reset between them and a learning episode in progress is cut there.
+"""
+
+from __future__ import annotations
+
+import enum
+from dataclasses import dataclass
+
+import numpy as np
+
+from hadim_cli.config import LearnerConfig
+from hadim_cli.learner.adaptation import Adaptation
+from hadim_cli.learner.affordance import Affordance, Fitter, output_bounds
+from hadim_cli.learner.dataset import Dataset
+from hadim_cli.learner.hierarchy import Event, Hierarchy
+from hadim_cli.learner.interest import select_index
+from hadim_cli.learner.planner import Actuator, Binding, Planner
+from hadim_cli.learner.spaces import ACTION, Property, Role, RoleSpace, SpaceReader
+from hadim_cli.world.layout import ObservationLayout
+
+
+class Mode(enum.StrEnum):
+    RANDOM_ACTION = "random-action"
+    RANDOM_CONTROLLABLE = "random-controllable"
+    GOAL = "goal"
+
+
+@dataclass(frozen=True)
+class LearningEpisode:
+    """What one pass of Algorithm 1 did."""
+
+    mode: Mode
+    start: int
+    stop: int
+    affordance_id: int
+    goal: tuple[float, ...]
+    competence: float
+    events: tuple[Event, ...]
+
+
+class Learner:
+    """D, H and the machinery acting on them; knows nothing of the world but its layout."""
+
+    def __init__(self, config: LearnerConfig, layout: ObservationLayout):
+        self.config = config
+        self.layout = layout
+        self.reader = SpaceReader(layout)
+        self.dataset = Dataset(layout.size)
+        self.hierarchy = Hierarchy()
+        self.fitter = Fitter(self.dataset, self.reader, config)
+        self.adaptation = Adaptation(self.hierarchy, self.fitter, config)
+        self.planner = Planner(self.hierarchy, self.reader, config)
+        self.learning_episodes = 0
+
+    @property
+    def iteration(self) -> int:
+        return len(self.dataset)
+
+    # ------------------------------------------------------------------ object selection
+    def accepted_objects(self, aff: Affordance, obs: np.ndarray) -> np.ndarray:
+        """Entity indices of the objects p_A accepts (all objects while p_A knows nothing)."""
+        objects = np.arange(1, len(self.layout.entities))
+        if aff.classifier is None or aff.classifier.n_positive == 0:
+            return objects
+        features = np.stack([self.reader.visual_features(obs, int(e)) for e in objects])
+        return objects[aff.classifier.accepts(features)]
+
+    def closest(self, candidates: np.ndarray, obs: np.ndarray, exclude: int = -1,
+                to: int = 0) -> int:
+        """The candidate entity nearest entity `to` (the robot by default)."""
+        anchor = self.reader.entity_position(obs, to)
+        best, best_d = -1, np.inf
+        for e in candidates:
+            if int(e) == exclude:
+                continue
+            d = float(np.linalg.norm(self.reader.entity_position(obs, int(e)) - anchor))
+            if d < best_d:
+                best, best_d = int(e), d
+        return best
+
+    def select_binding(self, aff: Affordance, obs: np.ndarray) -> Binding | None:
+        """ObjectSelection: the closest object p_A accepts (and a tool that can be moved)."""
+        if not aff.has_target:
+            return Binding()
+        target = self.closest(self.accepted_objects(aff, obs), obs)
+        if target < 0:
+            return None
+        if not aff.has_tool:
+            return Binding(target=target)
+        movers = [a for a in self.hierarchy.controllers(aff.input)]
+        if not movers:
+            return None
+        # The tool: the object nearest the target among those the mover can move.
+        tool = self.closest(self.accepted_objects(movers[0], obs), obs, exclude=target,
+                            to=target)
+        return Binding(target=target, tool=tool) if tool >= 0 else None
+
+    def salient_goal(self, aff: Affordance, binding: Binding, obs: np.ndarray,
+                     rng: np.random.Generator) -> np.ndarray | None:
+        """The position of another object `aff`'s p_A accepts (where pushing an object meets
+        another), for a share `salient_goals` of random goals in an object's position space."""
+        space = aff.output
+        if (space.role is not Role.TARGET or space.prop is not Property.POSITION
+                or binding.target < 0 or rng.random() >= self.config.salient_goals):
+            return None
+        others = [int(e) for e in self.accepted_objects(aff, obs) if int(e) != binding.target]
+        if not others:
+            return None
+        return self.reader.entity_position(obs, others[int(rng.integers(len(others)))]).copy()
+
+    # ------------------------------------------------------------------ Algorithm 1
+    def learning_episode(self, actuator: Actuator, rng: np.random.Generator) -> LearningEpisode:
+        start = self.iteration
+        affordances = list(self.hierarchy)
+        if affordances and rng.random() < self.config.sigma:
+            mode, aid, goal, competence = self._goal_babbling(affordances, actuator, rng)
+        else:
+            mode, aid, goal, competence = self._random_controllable(actuator, rng)
+        stop = self.iteration
+        events: tuple[Event, ...] = ()
+        if stop > start:
+            events = tuple(self.adaptation.run(start, stop, stop, self.learning_episodes, rng))
+        self.learning_episodes += 1
+        return LearningEpisode(mode, start, stop, aid, tuple(float(g) for g in goal),
+                               competence, events)
+
+    def _goal_babbling(self, affordances: list[Affordance], actuator: Actuator,
+                       rng: np.random.Generator) -> tuple[Mode, int, np.ndarray, float]:
+        interests = [a.interest.interest for a in affordances]
+        aff = affordances[select_index(interests, rng, self.config.interest_epsilon)]
+        goal = aff.interest.sample_goal(rng, epsilon=self.config.interest_epsilon)
+        binding = self.select_binding(aff, actuator.obs)
+        if binding is None:
+            return self._random_controllable(actuator, rng)
+        attempt = self.planner.reach(aff, binding, goal, actuator, self.config.goal_budget)
+        if attempt.actions == 0:
+            # Nothing could be planned: babble instead so the episode still explores.
+            return self._random_controllable(actuator, rng)
+        aff.interest.add(goal, attempt.competence, self.iteration)
+        return Mode.GOAL, aff.id, goal, attempt.competence
+
+    def _random_controllable(self, actuator: Actuator,
+                             rng: np.random.Generator) -> tuple[Mode, int, np.ndarray, float]:
+        spaces: list[RoleSpace] = [ACTION, *sorted(self.hierarchy.controllable())]
+        space = spaces[int(rng.integers(len(spaces)))]
+        if space is ACTION:
+            for _ in range(self.config.random_sequence_length):
+                if actuator.exhausted:
+                    break
+                actuator.act(rng.uniform(-1.0, 1.0, size=2))
+            return Mode.RANDOM_ACTION, -1, np.zeros(0), 0.0
+        aff = self.hierarchy.controllers(space)[0]
+        binding = self.select_binding(aff, actuator.obs)
+        if binding is None:
+            return self._random_controllable_action(actuator, rng)
+        goal = self.salient_goal(aff, binding, actuator.obs, rng)
+        if goal is None:
+            low, high = output_bounds(space, self.reader)
+            goal = rng.uniform(low, high)
+        attempt = self.planner.reach(aff, binding, goal, actuator, self.config.goal_budget)
+        if attempt.actions == 0:
+            return self._random_controllable_action(actuator, rng)
+        return Mode.RANDOM_CONTROLLABLE, aff.id, goal, attempt.competence
+
+    def _random_controllable_action(self, actuator: Actuator,
+                                    rng: np.random.Generator) -> tuple[Mode, int, np.ndarray,
+                                                                       float]:
+        actuator.act(rng.uniform(-1.0, 1.0, size=2))
+        return Mode.RANDOM_ACTION, -1, np.zeros(0), 0.0

@@ -1,0 +1,203 @@
+"""Spaces written by role, so an affordance generalises across objects.
+
+A concrete observation space is (entity, property) — `obj3.position`. An affordance is written
+with *roles* instead of entities: `robot.position`, `target.position`, `target-robot` (the
+position of the affected object relative to the robot), `tool.position`, `target-tool`, … A
+`Binding` fills the roles (which object is the target, which the tool) and turns a role space
+into columns of the flat observation vectors of D.
+"""
+
+from __future__ import annotations
+
+import enum
+from dataclasses import dataclass
+from functools import cached_property
+
+import numpy as np
+
+from hadim_cli.world.layout import ROBOT, VISUAL_PROPERTIES, ObservationLayout, Property
+
+
+class Role(enum.StrEnum):
+    """Who a space belongs to in an affordance."""
+
+    ACTION = "action"
+    ROBOT = "robot"
+    TARGET = "target"
+    """The object whose property the affordance changes."""
+    TOOL = "tool"
+    """An object through which the affordance acts on the target."""
+
+
+@dataclass(frozen=True, order=True)
+class RoleSpace:
+    """A space of an affordance: `role.prop`, or `role - relative_to` for relative positions."""
+
+    role: Role
+    prop: Property | None = None
+    relative_to: Role | None = None
+
+    @property
+    def name(self) -> str:
+        if self.role is Role.ACTION:
+            return "action"
+        if self.relative_to is not None:
+            return f"{self.role.value}-{self.relative_to.value}"
+        assert self.prop is not None
+        return f"{self.role.value}.{self.prop.value}"
+
+    @property
+    def roles(self) -> frozenset[Role]:
+        out = {self.role}
+        if self.relative_to is not None:
+            out.add(self.relative_to)
+        return frozenset(out - {Role.ACTION})
+
+    def __str__(self) -> str:
+        return self.name
+
+
+ACTION = RoleSpace(Role.ACTION)
+
+
+def parse_space(name: str) -> RoleSpace:
+    """Inverse of `RoleSpace.name`."""
+    if name == "action":
+        return ACTION
+    if "-" in name:
+        role, other = name.split("-", 1)
+        return RoleSpace(Role(role), Property.POSITION, Role(other))
+    role, prop = name.split(".", 1)
+    return RoleSpace(Role(role), Property(prop))
+
+
+def space_dim(space: RoleSpace, layout: ObservationLayout) -> int:
+    if space.role is Role.ACTION:
+        return 2
+    entity = ROBOT if space.role is Role.ROBOT else layout.objects[0]
+    return layout.space(entity, space.prop or Property.POSITION).dim
+
+
+# Spaces whose change an affordance may predict (its output). Relative positions are fixed
+# functions of two absolute positions and LIDAR a function of the room: they serve as contexts
+# only, which keeps H from filling with trivial correlations (see docs/algorithm.md).
+OUTPUT_SPACES: tuple[RoleSpace, ...] = (
+    RoleSpace(Role.ROBOT, Property.POSITION),
+    RoleSpace(Role.ROBOT, Property.HEADING),
+    RoleSpace(Role.TARGET, Property.POSITION),
+)
+
+
+def context_candidates(roles: frozenset[Role]) -> tuple[RoleSpace, ...]:
+    """Every context space that can be read for an affordance involving `roles`."""
+    out: list[RoleSpace] = [
+        RoleSpace(Role.ROBOT, Property.HEADING),
+        RoleSpace(Role.ROBOT, Property.LIDAR),
+        RoleSpace(Role.ROBOT, Property.POSITION),
+    ]
+    for role in (Role.TARGET, Role.TOOL):
+        if role not in roles:
+            continue
+        out.append(RoleSpace(role, Property.POSITION, Role.ROBOT))
+        out.extend(RoleSpace(role, p) for p in (Property.RADIUS, Property.HEIGHT))
+    if {Role.TARGET, Role.TOOL} <= roles:
+        out.append(RoleSpace(Role.TARGET, Property.POSITION, Role.TOOL))
+    return tuple(out)
+
+
+@dataclass(frozen=True)
+class Rows:
+    """Rows of an affordance's data: iteration indices into D and the binding of each row.
+
+    `target` and `tool` hold entity indices of the layout (0 is the robot, -1 unbound).
+    """
+
+    t: np.ndarray
+    target: np.ndarray
+    tool: np.ndarray
+
+    @classmethod
+    def empty(cls) -> Rows:
+        z = np.zeros(0, dtype=np.int64)
+        return cls(z, z.copy(), z.copy())
+
+    def __len__(self) -> int:
+        return int(self.t.shape[0])
+
+    def concat(self, other: Rows) -> Rows:
+        return Rows(np.concatenate([self.t, other.t]), np.concatenate([self.target, other.target]),
+                    np.concatenate([self.tool, other.tool]))
+
+    def take(self, idx: np.ndarray) -> Rows:
+        return Rows(self.t[idx], self.target[idx], self.tool[idx])
+
+
+class SpaceReader:
+    """Reads role spaces out of D's flat arrays for many rows at once (vectorised)."""
+
+    def __init__(self, layout: ObservationLayout):
+        self.layout = layout
+        self._entity_start = np.array(
+            [layout.space(e, Property.POSITION).start for e in layout.entities], dtype=np.int64)
+
+    @cached_property
+    def _offsets(self) -> dict[tuple[bool, Property], tuple[int, int]]:
+        """(is_robot, property) → (offset from the entity's position column, dim)."""
+        out: dict[tuple[bool, Property], tuple[int, int]] = {}
+        for is_robot, entity in ((True, ROBOT), (False, self.layout.objects[0])):
+            base = self.layout.space(entity, Property.POSITION).start
+            for spec in self.layout.spaces:
+                if spec.entity == entity:
+                    out[(is_robot, spec.prop)] = (spec.start - base, spec.dim)
+        return out
+
+    def _entity_of(self, role: Role, rows: Rows) -> np.ndarray:
+        if role is Role.ROBOT:
+            return np.zeros(len(rows), dtype=np.int64)
+        return rows.target if role is Role.TARGET else rows.tool
+
+    def _gather(self, arr: np.ndarray, role: Role, prop: Property, rows: Rows) -> np.ndarray:
+        offset, dim = self._offsets[(role is Role.ROBOT, prop)]
+        cols = self._entity_start[self._entity_of(role, rows)] + offset
+        return arr[rows.t[:, None], cols[:, None] + np.arange(dim)]
+
+    def read(self, space: RoleSpace, arr: np.ndarray, rows: Rows,
+             actions: np.ndarray | None = None) -> np.ndarray:
+        """Values of `space` in `arr` (contexts, or outcomes for deltas) at `rows`."""
+        if space.role is Role.ACTION:
+            assert actions is not None
+            return actions[rows.t]
+        assert space.prop is not None
+        values = self._gather(arr, space.role, space.prop, rows)
+        if space.relative_to is not None:
+            values = values - self._gather(arr, space.relative_to, space.prop, rows)
+        return values
+
+    def read_many(self, spaces: tuple[RoleSpace, ...], arr: np.ndarray, rows: Rows) -> np.ndarray:
+        if not spaces:
+            return np.zeros((len(rows), 0))
+        return np.concatenate([self.read(s, arr, rows) for s in spaces], axis=1)
+
+    def value_now(self, space: RoleSpace, obs: np.ndarray, target: int = -1,
+                  tool: int = -1) -> np.ndarray:
+        """The value of `space` in one observation under one binding."""
+        rows = Rows(np.zeros(1, dtype=np.int64), np.array([target]), np.array([tool]))
+        return self.read(space, obs[None, :], rows)[0]
+
+    def visual_features(self, obs: np.ndarray, entity: int) -> np.ndarray:
+        """Normalised visual properties of one entity: the input of p_A."""
+        name = self.layout.entities[entity]
+        parts = []
+        for prop in VISUAL_PROPERTIES:
+            spec = self.layout.space(name, prop)
+            high = np.maximum(np.asarray(spec.high), 1e-9)
+            parts.append(obs[spec.slice] / high)
+        return np.concatenate(parts)
+
+    def entity_position(self, obs: np.ndarray, entity: int) -> np.ndarray:
+        start = self._entity_start[entity]
+        return obs[start:start + 2]
+
+    def entity_radius(self, obs: np.ndarray, entity: int) -> float:
+        name = self.layout.entities[entity]
+        return float(obs[self.layout.space(name, Property.RADIUS).start])

@@ -1,0 +1,199 @@
+"""Runs: sessions persisted in the experiment store — create, checkpoint, restore, train.
+
+The store (package `store/`) knows nothing of the learner; this module turns a `Session` into
+what one episode writes (D's rows, H's events, affordance stats, interest-map leaves and a
+checkpoint) and back.
+"""
+
+from __future__ import annotations
+
+import os
+import socket
+from collections.abc import Callable
+from dataclasses import dataclass
+from importlib import metadata
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from hadim_cli.config import Config, config_from_dict
+from hadim_cli.errors import HadimError
+from hadim_cli.evaluation.runner import TaskResult, evaluate
+from hadim_cli.evaluation.tasks import load_task
+from hadim_cli.learner.hierarchy import Event
+from hadim_cli.learner.state import learner_state, restore_learner
+from hadim_cli.session import EpisodeLog, Session
+from store.api import Store
+from store.records import (
+    AffordanceEvent,
+    AffordanceStat,
+    EpisodeWrite,
+    InterestRegion,
+    RunRecord,
+    RunStatus,
+)
+
+STORE_ENV = "HADIM_STORE"
+DEFAULT_STORE = "hadim.sqlite"
+STATE_FORMAT = 1
+
+
+def store_location(option: str | None) -> str:
+    return option or os.environ.get(STORE_ENV) or DEFAULT_STORE
+
+
+def open_store(option: str | None, *, create: bool = True) -> Store:
+    where = store_location(option)
+    if not create and "://" not in where and not Path(where).exists():
+        raise HadimError(f"no store at {where} (train a run first, or pass --store)")
+    return Store.open(where, create=create)
+
+
+def package_versions() -> dict[str, str]:
+    out = {}
+    for name in ("hadim", "numpy", "torch", "pymunk", "scikit-learn", "sqlalchemy"):
+        try:
+            out[name] = metadata.version(name)
+        except metadata.PackageNotFoundError:
+            out[name] = "unknown"
+    return out
+
+
+def owner_id() -> str:
+    return f"{socket.gethostname()}:{os.getpid()}"
+
+
+# --------------------------------------------------------------------------- state
+
+def session_state(session: Session) -> tuple[dict[str, Any], dict[str, np.ndarray]]:
+    meta, arrays = learner_state(session.learner)
+    return {
+        "format": STATE_FORMAT,
+        "learner": meta,
+        "episodes_done": session.episodes_done,
+        "seed": session.seed,
+        "rng": {"world": session.world_rng.bit_generator.state,
+                "learner": session.learner_rng.bit_generator.state},
+    }, arrays
+
+
+def restore_session(store: Store, run: RunRecord, at: int | None = None,
+                    config: Config | None = None) -> Session:
+    """The run's session as it stood at its checkpoint at or before `at` (latest if None);
+    with `config`, as a fork of it with that config would start (to check it fits)."""
+    checkpoint = store.checkpoint(run.name, at)
+    config = config_from_dict(run.config) if config is None else config
+    session = Session(config, run.seed)
+    if checkpoint is None:
+        if at is not None and at > 0:
+            raise HadimError(f"run {run.name} has no checkpoint at or before iteration {at}")
+        return session
+    meta = checkpoint.json
+    if meta.get("format") != STATE_FORMAT:
+        raise HadimError(f"run {run.name}: checkpoint format {meta.get('format')!r} is not "
+                         f"supported by this hadim")
+    dataset = session.learner.dataset
+    for episode in store.episodes(run.name, upto_iteration=checkpoint.iteration):
+        width = episode.contexts.shape[1] if episode.contexts.ndim == 2 else None
+        if width != dataset.obs_size or episode.actions.shape[1:] != (dataset.action_size,):
+            # A config whose world has other objects or LIDAR rays cannot read this D.
+            raise HadimError(f"run {run.name}: its stored observations have {width} values "
+                             f"but the config's world observes {dataset.obs_size}; the world's "
+                             f"objects and LIDAR cannot change within a run")
+        dataset.extend(episode.actions, episode.contexts, episode.outcomes)
+    try:
+        restore_learner(session.learner, meta["learner"], checkpoint.arrays)
+    except (KeyError, ValueError) as exc:
+        raise HadimError(f"run {run.name}: checkpoint at {checkpoint.iteration} is unusable: "
+                         f"{exc}") from None
+    session.world_rng.bit_generator.state = meta["rng"]["world"]
+    session.learner_rng.bit_generator.state = meta["rng"]["learner"]
+    if int(meta.get("seed", run.seed)) != run.seed:
+        # A fork given a new seed continues with fresh generators from (seed, iteration).
+        root = np.random.default_rng([run.seed, checkpoint.iteration])
+        session.world_rng, session.learner_rng = root.spawn(2)
+    session.episodes_done = int(meta["episodes_done"])
+    return session
+
+
+def _store_event(e: Event) -> AffordanceEvent:
+    return AffordanceEvent(e.iteration, e.affordance_id, e.kind.value, e.input, e.output,
+                           e.contexts, e.competence, dict(e.detail))
+
+
+def episode_write(session: Session, log: EpisodeLog) -> EpisodeWrite:
+    d = session.learner.dataset
+    stop = log.stop
+    events = [_store_event(e) for le in log.learning for e in le.events]
+    stats, regions = [], []
+    for aff in session.learner.hierarchy:
+        stats.append(AffordanceStat(stop, aff.id, float(aff.competence), len(aff.rows),
+                                    float(aff.interest.interest)))
+        for leaf in aff.interest.leaves():
+            regions.append(InterestRegion(stop, aff.id, leaf.region_id, leaf.parent_id,
+                                          tuple(leaf.low), tuple(leaf.high), leaf.n_goals,
+                                          float(leaf.interest)))
+    meta, arrays = session_state(session)
+    extra = {"learning_episodes": [
+        {"mode": le.mode.value, "start": le.start, "stop": le.stop,
+         "affordance": le.affordance_id, "goal": list(le.goal), "competence": le.competence}
+        for le in log.learning]}
+    return EpisodeWrite(
+        index=log.index, first_iteration=log.start,
+        actions=d.actions[log.start:stop].copy(), contexts=d.contexts[log.start:stop].copy(),
+        outcomes=d.outcomes[log.start:stop].copy(), extra=extra, events=events, stats=stats,
+        regions=regions, checkpoint_arrays=arrays, checkpoint_json=meta,
+    )
+
+
+# --------------------------------------------------------------------------- training
+
+@dataclass
+class Progress:
+    """What the training loop reports after each episode."""
+
+    iteration: int
+    total: int
+    affordances: int
+    scores: dict[str, float]
+
+
+def evaluate_tasks(session: Session, tasks: tuple[str, ...]) -> dict[str, TaskResult]:
+    return {name: evaluate(session.learner, session.config.world, load_task(name))
+            for name in tasks}
+
+
+def train(store: Store | None, run: str | None, session: Session, total: int, *,
+          eval_every: int = 0, tasks: tuple[str, ...] = (),
+          on_progress: Callable[[Progress], None] | None = None,
+          should_stop: Callable[[], bool] | None = None,
+          owner: str | None = None) -> dict[str, float]:
+    """Run `session` to `total` iterations, storing every episode (when a store is given)."""
+    scores: dict[str, float] = {}
+
+    def after_episode(log: EpisodeLog) -> bool:
+        if store is not None and run is not None:
+            store.write_episode(run, episode_write(session, log), owner=owner)
+        it = session.iteration
+        if eval_every and it % eval_every == 0 and tasks:
+            for name, result in evaluate_tasks(session, tasks).items():
+                scores[name] = result.score
+                if store is not None and run is not None:
+                    store.add_evaluation(run, it, name, result.score,
+                                         result.to_dict()["points"])
+        if on_progress is not None:
+            on_progress(Progress(it, total, len(session.learner.hierarchy), dict(scores)))
+        return bool(should_stop and should_stop())
+
+    session.run(total, after_episode)
+    return scores
+
+
+def new_run(store: Store, config: Config, seed: int, name: str | None) -> RunRecord:
+    return store.create_run(config=config.to_dict(), seed=seed, name=name,
+                            versions=package_versions())
+
+
+def finish_status(session: Session, total: int) -> RunStatus:
+    return RunStatus.FINISHED if session.iteration >= total else RunStatus.PAUSED

@@ -1,0 +1,156 @@
+"""Observation layout: named per-entity property spaces laid out in one flat float vector.
+
+An observation is a 1-D float64 array; `ObservationLayout` says which slice holds which
+(entity, property) space, with its dimension and bounds. The world fills the vector; the
+learner reads spaces by name. Entity 0 is always the robot, entities 1..n the objects.
+"""
+
+from __future__ import annotations
+
+import enum
+from dataclasses import dataclass
+from functools import cached_property
+
+import numpy as np
+
+ROBOT = "robot"
+
+
+def object_name(index: int) -> str:
+    """Name of the object entity `index` (0-based): obj1, obj2, …"""
+    return f"obj{index + 1}"
+
+
+class Property(enum.StrEnum):
+    """Observable properties of an entity (paper §3.1)."""
+
+    POSITION = "position"
+    """Absolute (x, y) in the room frame, origin at the room centre (m)."""
+    RELATIVE = "relative"
+    """Object position minus robot position, room frame (m); objects only."""
+    HEADING = "heading"
+    """(cos θ, sin θ) of the robot's heading; robot only."""
+    LIDAR = "lidar"
+    """Ranges of the LIDAR rays from the robot's centre (m), robot frame; robot only."""
+    RADIUS = "radius"
+    HEIGHT = "height"
+    COLOR = "color"
+    """RGB in [0, 1]."""
+    SHAPE = "shape"
+    """Shape code (see `Shape`)."""
+
+
+class Shape(enum.IntEnum):
+    """Shape codes; kept a property so boxes can come later."""
+
+    CYLINDER = 0
+
+
+# Properties that describe what an entity *is* (inputs of the visual classifier p_A).
+VISUAL_PROPERTIES: tuple[Property, ...] = (
+    Property.RADIUS, Property.HEIGHT, Property.COLOR, Property.SHAPE,
+)
+
+
+@dataclass(frozen=True)
+class SpaceSpec:
+    """One (entity, property) space of the observation vector."""
+
+    entity: str
+    prop: Property
+    start: int
+    dim: int
+    low: tuple[float, ...]
+    high: tuple[float, ...]
+
+    @property
+    def name(self) -> str:
+        return f"{self.entity}.{self.prop.value}"
+
+    @property
+    def slice(self) -> slice:
+        return slice(self.start, self.start + self.dim)
+
+
+@dataclass(frozen=True)
+class LayoutBounds:
+    """The bounds the layout needs (taken from the world config)."""
+
+    half_width: float
+    half_height: float
+    lidar_range: float
+    radius_max: float
+    height_max: float
+
+
+def _props_of(is_robot: bool, lidar_rays: int) -> list[tuple[Property, int]]:
+    if is_robot:
+        return [(Property.POSITION, 2), (Property.HEADING, 2), (Property.LIDAR, lidar_rays),
+                (Property.RADIUS, 1), (Property.HEIGHT, 1), (Property.COLOR, 3),
+                (Property.SHAPE, 1)]
+    return [(Property.POSITION, 2), (Property.RELATIVE, 2), (Property.RADIUS, 1),
+            (Property.HEIGHT, 1), (Property.COLOR, 3), (Property.SHAPE, 1)]
+
+
+def _bounds(prop: Property, dim: int, b: LayoutBounds) -> tuple[tuple[float, ...], ...]:
+    if prop is Property.POSITION:
+        return (-b.half_width, -b.half_height), (b.half_width, b.half_height)
+    if prop is Property.RELATIVE:
+        return (-2 * b.half_width, -2 * b.half_height), (2 * b.half_width, 2 * b.half_height)
+    if prop is Property.HEADING:
+        return (-1.0, -1.0), (1.0, 1.0)
+    if prop is Property.LIDAR:
+        return (0.0,) * dim, (b.lidar_range,) * dim
+    if prop is Property.RADIUS:
+        return (0.0,), (b.radius_max,)
+    if prop is Property.HEIGHT:
+        return (0.0,), (b.height_max,)
+    if prop is Property.COLOR:
+        return (0.0,) * 3, (1.0,) * 3
+    return (0.0,), (float(max(Shape)),)
+
+
+@dataclass(frozen=True)
+class ObservationLayout:
+    """Where each (entity, property) space lives in the flat observation vector."""
+
+    entities: tuple[str, ...]
+    spaces: tuple[SpaceSpec, ...]
+
+    @classmethod
+    def build(cls, n_objects: int, lidar_rays: int, bounds: LayoutBounds) -> ObservationLayout:
+        entities = (ROBOT, *(object_name(i) for i in range(n_objects)))
+        spaces: list[SpaceSpec] = []
+        start = 0
+        for entity in entities:
+            for prop, dim in _props_of(entity == ROBOT, lidar_rays):
+                low, high = _bounds(prop, dim, bounds)
+                spaces.append(SpaceSpec(entity, prop, start, dim, low, high))
+                start += dim
+        return cls(entities, tuple(spaces))
+
+    @property
+    def size(self) -> int:
+        last = self.spaces[-1]
+        return last.start + last.dim
+
+    @property
+    def objects(self) -> tuple[str, ...]:
+        return self.entities[1:]
+
+    @cached_property
+    def _index(self) -> dict[tuple[str, Property], SpaceSpec]:
+        return {(s.entity, s.prop): s for s in self.spaces}
+
+    def space(self, entity: str, prop: Property) -> SpaceSpec:
+        try:
+            return self._index[(entity, Property(prop))]
+        except KeyError:
+            raise KeyError(f"no space {entity}.{prop}") from None
+
+    def has(self, entity: str, prop: Property) -> bool:
+        return (entity, Property(prop)) in self._index
+
+    def get(self, obs: np.ndarray, entity: str, prop: Property) -> np.ndarray:
+        """The values of one space in one observation (or the rows of a batch)."""
+        return obs[..., self.space(entity, prop).slice]

@@ -1,0 +1,191 @@
+"""The pymunk model of the room: a fresh `Space` built from a `Scene` (paper §3.1).
+
+Top-down, no gravity. Ground friction of every movable body is emulated with the pymunk "tank"
+pattern: a `PivotJoint` and a `GearJoint` to a reference body with `max_bias = 0` (velocity
+correction only) and a bounded `max_force`. For a green object the reference is the static
+body and the bounds are Coulomb friction (μ·m·g, and its torque (2/3)·μ·m·g·r for a disc of
+uniform pressure). For the robot the reference is a kinematic *control body* whose velocity is
+the one the wheels ask for; the bounds are the drive force and torque, so a heavy load slows the
+robot down. Red objects are static circles; walls are thick static segments.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+import pymunk
+import pymunk.batch
+
+from hadim_cli.config import WorldConfig
+from hadim_cli.world.layout import ROBOT, object_name
+from hadim_cli.world.placement import object_mass
+from hadim_cli.world.scene import Scene
+
+GRAVITY = 9.81
+"""Acceleration of gravity (m/s²), for the ground friction force μ·m·g."""
+WALL_THICKNESS = 0.2
+"""Half-thickness of the wall segments (m): far more than any body moves in one physics step."""
+SHAPE_FRICTION = 0.5
+"""Coulomb coefficient between shapes (robot on object, object on object, on walls)."""
+COLLISION_SLOP = 0.001
+"""Overlap the solver tolerates (m); pymunk's default (0.1) is meant for pixels, not metres."""
+
+
+def n_substeps(config: WorldConfig) -> int:
+    """Physics steps one primitive action lasts (action_duration / physics_dt, rounded)."""
+    return max(1, round(config.action_duration / config.physics_dt))
+
+
+def wheel_command(config: WorldConfig, left: float, right: float) -> tuple[float, float]:
+    """(forward speed m/s, angular speed rad/s) of a differential drive for wheel intensities."""
+    speed = config.max_wheel_speed
+    return (left + right) / 2 * speed, (right - left) * speed / config.wheel_base
+
+
+class ContactLog:
+    """Entity pairs touching now, and those that touched at any physics step since `start()`.
+
+    Fed by pymunk's begin/separate callbacks, so it costs nothing while contacts persist.
+    One log per space: a discarded space's late `separate` calls cannot reach a new one.
+    """
+
+    def __init__(self, names: dict[pymunk.Shape, str]):
+        self._names = names
+        self.touching: set[tuple[str, str]] = set()
+        self.touched: set[tuple[str, str]] = set()
+
+    def _pair(self, arbiter: pymunk.Arbiter) -> tuple[str, str] | None:
+        a, b = arbiter.shapes
+        name_a, name_b = self._names.get(a), self._names.get(b)
+        if name_a is None or name_b is None:
+            return None  # a wall: not an entity
+        return (name_a, name_b) if name_a < name_b else (name_b, name_a)
+
+    def begin(self, arbiter: pymunk.Arbiter, space: pymunk.Space, data: object) -> None:
+        pair = self._pair(arbiter)
+        if pair is not None:
+            self.touching.add(pair)
+            self.touched.add(pair)
+
+    def separate(self, arbiter: pymunk.Arbiter, space: pymunk.Space, data: object) -> None:
+        pair = self._pair(arbiter)
+        if pair is not None:
+            self.touching.discard(pair)
+
+    def start(self) -> None:
+        self.touched = set(self.touching)
+
+
+class PoseReader:
+    """(x, y, angle) of the robot and of every object in one batch call per observation.
+
+    `pymunk.batch` copies all bodies' poses in one C call, far cheaper than one `Body.position`
+    per body. Its row order is the space's body order: matched to ours once, by body id.
+    """
+
+    _FIELDS = pymunk.batch.BodyFields.POSITION | pymunk.batch.BodyFields.ANGLE
+
+    def __init__(self, space: pymunk.Space, bodies: list[pymunk.Body]):
+        self._space = space
+        self._buffer = pymunk.batch.Buffer()
+        pymunk.batch.get_space_bodies(space, pymunk.batch.BodyFields.BODY_ID, self._buffer)
+        ids = np.frombuffer(self._buffer.int_buf(), dtype=np.uintp).tolist()
+        row = {body_id: i for i, body_id in enumerate(ids)}
+        self._rows = np.array([row[b.id] for b in bodies], dtype=np.intp)
+
+    def poses(self) -> np.ndarray:
+        """Array (len(bodies), 3) of x, y, angle, in the order the bodies were given."""
+        buffer = self._buffer
+        buffer.clear()
+        pymunk.batch.get_space_bodies(self._space, self._FIELDS, buffer)
+        return np.frombuffer(buffer.float_buf(), dtype=np.float64).reshape(-1, 3)[self._rows]
+
+
+@dataclass
+class Physics:
+    """One episode's space and the handles the world steps and reads."""
+
+    space: pymunk.Space
+    robot: pymunk.Body
+    control: pymunk.Body
+    """Kinematic body whose velocity is the wheels' command; the robot follows it."""
+    movable: list[pymunk.Body]
+    """Green objects' bodies, in scene order."""
+    contacts: ContactLog
+    poses: PoseReader
+    """Reads the robot's pose (row 0) and the objects' (rows 1…, scene order)."""
+
+
+def _walls(space: pymunk.Space, config: WorldConfig) -> None:
+    t = WALL_THICKNESS
+    hw, hh = config.room_width / 2 + t, config.room_height / 2 + t
+    corners = [(-hw, -hh), (hw, -hh), (hw, hh), (-hw, hh)]
+    for a, b in zip(corners, corners[1:] + corners[:1], strict=True):
+        wall = pymunk.Segment(space.static_body, a, b, t)
+        wall.elasticity, wall.friction = 0.0, SHAPE_FRICTION
+        space.add(wall)
+
+
+def _friction_joints(space: pymunk.Space, ref: pymunk.Body, body: pymunk.Body,
+                     force: float, torque: float) -> None:
+    pivot = pymunk.PivotJoint(ref, body, (0, 0), (0, 0))
+    pivot.max_bias, pivot.max_force = 0.0, force
+    gear = pymunk.GearJoint(ref, body, 0.0, 1.0)
+    gear.max_bias, gear.max_force = 0.0, torque
+    space.add(pivot, gear)
+
+
+def _circle(space: pymunk.Space, body: pymunk.Body, radius: float) -> pymunk.Circle:
+    shape = pymunk.Circle(body, radius)
+    shape.elasticity, shape.friction = 0.0, SHAPE_FRICTION
+    space.add(shape)
+    return shape
+
+
+def build_physics(config: WorldConfig, scene: Scene, *, track_contacts: bool = True) -> Physics:
+    """A fresh space holding the walls, the robot at its start pose and the scene's objects.
+
+    Without `track_contacts` no collision callback is installed (the raw benchmark): the
+    physics is the same, the contact log stays empty.
+    """
+    space = pymunk.Space()
+    space.collision_slop = COLLISION_SLOP
+    names: dict[pymunk.Shape, str] = {}
+    _walls(space, config)
+
+    robot = pymunk.Body(config.robot_mass,
+                        pymunk.moment_for_circle(config.robot_mass, 0, config.robot_radius))
+    robot.position = (scene.robot_x, scene.robot_y)
+    robot.angle = scene.robot_heading
+    space.add(robot)
+    names[_circle(space, robot, config.robot_radius)] = ROBOT
+    control = pymunk.Body(body_type=pymunk.Body.KINEMATIC)
+    control.position = robot.position
+    control.angle = robot.angle
+    space.add(control)
+    _friction_joints(space, control, robot, config.drive_force, config.drive_torque)
+
+    movable: list[pymunk.Body] = []
+    bodies = [robot]
+    for i, spec in enumerate(scene.objects):
+        if spec.pushable:
+            mass = object_mass(config, spec.radius, spec.height)
+            body = pymunk.Body(mass, pymunk.moment_for_circle(mass, 0, spec.radius))
+        else:
+            body = pymunk.Body(body_type=pymunk.Body.STATIC)
+        body.position = (spec.x, spec.y)
+        space.add(body)
+        bodies.append(body)
+        names[_circle(space, body, spec.radius)] = object_name(i)
+        if spec.pushable:
+            friction = config.ground_friction * mass * GRAVITY
+            _friction_joints(space, space.static_body, body, friction,
+                             friction * spec.radius * 2 / 3)
+            movable.append(body)
+
+    contacts = ContactLog(names)
+    if track_contacts:
+        space.on_collision(begin=contacts.begin, separate=contacts.separate)
+    return Physics(space, robot, control, movable, contacts,
+                   PoseReader(space, bodies))

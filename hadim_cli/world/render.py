@@ -1,0 +1,108 @@
+"""Top-down picture of the room from an observation: walls, objects, robot, LIDAR, trajectory.
+
+Everything is read from the observation vector and its layout (the room's size is the bound of
+the position spaces), so a stored observation renders as well as a live world. matplotlib is
+imported here only, and through `Figure` (no pyplot, no global backend state).
+"""
+
+from __future__ import annotations
+
+import math
+from pathlib import Path
+from typing import Protocol
+
+import numpy as np
+
+from hadim_cli.world.layout import ROBOT, ObservationLayout, Property
+
+_MOVED = 1e-3  # an object whose path is longer than this (m) gets its trajectory drawn
+
+
+class Observable(Protocol):
+    layout: ObservationLayout
+
+    def observe(self) -> np.ndarray: ...
+
+
+def _disc(ax, layout: ObservationLayout, obs: np.ndarray, entity: str) -> tuple[float, float]:
+    from matplotlib.patches import Circle
+
+    x, y = layout.get(obs, entity, Property.POSITION)
+    radius = float(layout.get(obs, entity, Property.RADIUS)[0])
+    color = np.clip(layout.get(obs, entity, Property.COLOR), 0.0, 1.0)
+    ax.add_patch(Circle((x, y), radius, facecolor=color, edgecolor="black", lw=0.8, zorder=3))
+    ax.annotate(entity, (x, y), ha="center", va="center", fontsize=7, zorder=5,
+                color="white" if color.sum() < 1.2 else "black")
+    return float(x), float(y)
+
+
+def _lidar(ax, layout: ObservationLayout, obs: np.ndarray, x: float, y: float) -> None:
+    spec = layout.space(ROBOT, Property.LIDAR)
+    ranges = obs[spec.slice]
+    cos_h, sin_h = layout.get(obs, ROBOT, Property.HEADING)
+    heading = math.atan2(sin_h, cos_h)
+    angles = heading + 2 * np.pi * np.arange(spec.dim) / spec.dim
+    ends_x, ends_y = x + ranges * np.cos(angles), y + ranges * np.sin(angles)
+    for ex, ey in zip(ends_x, ends_y, strict=True):
+        ax.plot([x, ex], [y, ey], color="orange", lw=0.6, alpha=0.8, zorder=2)
+    hit = ranges < spec.high[0] - 1e-9
+    ax.scatter(ends_x[hit], ends_y[hit], s=8, color="orange", zorder=4)
+
+
+def _trajectory(ax, layout: ObservationLayout, trajectory: np.ndarray) -> None:
+    for entity in layout.entities:
+        path = trajectory[:, layout.space(entity, Property.POSITION).slice]
+        if entity != ROBOT and np.abs(np.diff(path, axis=0)).sum() <= _MOVED:
+            continue
+        color = "black" if entity == ROBOT else np.clip(
+            layout.get(trajectory[0], entity, Property.COLOR), 0.0, 1.0)
+        ax.plot(path[:, 0], path[:, 1], color=color, lw=1.0,
+                ls="-" if entity == ROBOT else "--", zorder=2.5)
+        ax.scatter(path[:1, 0], path[:1, 1], s=10, color=color, marker="x", zorder=2.5)
+
+
+def render_scene(source: Observable | np.ndarray, path: Path | str, *,
+                 layout: ObservationLayout | None = None, trajectory: np.ndarray | None = None,
+                 lidar: bool = True, title: str | None = None) -> Path:
+    """Draw a world (its current observation) or an observation (with `layout`) to `path`.
+
+    `trajectory` is an array of observations (T, layout.size), oldest first: the robot's path is
+    drawn, and the path of every object that moved.
+    """
+    from matplotlib.figure import Figure
+    from matplotlib.patches import Rectangle
+
+    if isinstance(source, np.ndarray):
+        if layout is None:
+            raise ValueError("rendering an observation needs its layout")
+        obs = source
+    else:
+        obs, layout = source.observe(), source.layout
+    half_w, half_h = layout.space(ROBOT, Property.POSITION).high
+    fig = Figure(figsize=(6, 6), dpi=120)
+    ax = fig.add_subplot()
+    ax.add_patch(Rectangle((-half_w, -half_h), 2 * half_w, 2 * half_h, fill=False,
+                           edgecolor="dimgray", lw=4, zorder=1))
+    for entity in layout.objects:
+        _disc(ax, layout, obs, entity)
+    if trajectory is not None and len(trajectory):
+        _trajectory(ax, layout, np.atleast_2d(np.asarray(trajectory)))
+    x, y = _disc(ax, layout, obs, ROBOT)
+    if lidar:
+        _lidar(ax, layout, obs, x, y)
+    radius = float(layout.get(obs, ROBOT, Property.RADIUS)[0])
+    cos_h, sin_h = layout.get(obs, ROBOT, Property.HEADING)
+    ax.plot([x, x + 1.3 * radius * cos_h], [y, y + 1.3 * radius * sin_h], color="white",
+            lw=2, zorder=4)
+    margin = 0.1
+    ax.set_xlim(-half_w - margin, half_w + margin)
+    ax.set_ylim(-half_h - margin, half_h + margin)
+    ax.set_aspect("equal")
+    ax.set_xlabel("x (m)")
+    ax.set_ylabel("y (m)")
+    if title:
+        ax.set_title(title)
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    fig.savefig(path)
+    return path

@@ -1,0 +1,167 @@
+"""Opening a store: URL resolution, file checks done before anything is written, engine
+set-up (WAL, busy timeout, foreign keys on SQLite) and schema creation or migration.
+"""
+
+from __future__ import annotations
+
+import sqlite3
+from pathlib import Path
+
+from sqlalchemy import Connection, Engine, create_engine, event, inspect, select
+from sqlalchemy.engine import URL, make_url
+from sqlalchemy.exc import ArgumentError, DBAPIError
+from sqlalchemy.pool import StaticPool
+
+from store import migrations
+from store.errors import SchemaError, StoreError
+from store.models import Base, Meta
+
+BUSY_TIMEOUT_S = 10.0
+_SQLITE_HEADER = b"SQLite format 3\x00"
+# Execution option read by the "begin" hook: write scopes take SQLite's write lock up front so
+# that two writers queue on busy_timeout instead of failing on a stale read snapshot.
+BEGIN_MODE_OPTION = "hadim_sqlite_begin"
+
+
+def resolve_url(url: str | Path) -> URL:
+    """A SQLAlchemy URL from a URL string or a plain file path (``:memory:`` for memory)."""
+    if isinstance(url, Path) or "://" not in url:
+        path = str(url)
+        return make_url("sqlite://" if path == ":memory:" else f"sqlite:///{path}")
+    try:
+        return make_url(url)
+    except ArgumentError as exc:
+        raise StoreError(f"not a store URL or path: {url!r} ({exc})") from exc
+
+
+def is_sqlite(url: URL) -> bool:
+    return url.get_backend_name() == "sqlite"
+
+
+def sqlite_file(url: URL) -> Path | None:
+    """The database file of a SQLite URL; None for in-memory or other backends."""
+    if not is_sqlite(url) or url.database in (None, "", ":memory:"):
+        return None
+    return Path(url.database)
+
+
+def check_sqlite_file(path: Path, *, create: bool) -> None:
+    """Refuse, without writing anything, a file that is not an empty or hadim SQLite store."""
+    if not path.exists():
+        if not create:
+            raise StoreError(f"no hadim store at {path}")
+        if not path.parent.is_dir():
+            raise StoreError(f"cannot create a store at {path}: {path.parent} is not a directory")
+        return
+    if path.is_dir():
+        raise SchemaError(f"{path} is a directory, not a SQLite database")
+    if path.stat().st_size == 0:
+        if not create:
+            raise StoreError(f"no hadim store at {path} (the file is empty)")
+        return
+    with path.open("rb") as handle:
+        if handle.read(len(_SQLITE_HEADER)) != _SQLITE_HEADER:
+            raise SchemaError(f"{path} is not a SQLite database")
+    readonly = create_engine(
+        "sqlite://",
+        creator=lambda: sqlite3.connect(f"{path.resolve().as_uri()}?mode=ro", uri=True),
+        poolclass=StaticPool,
+    )
+    try:
+        with readonly.connect() as conn:
+            version = read_schema_version(conn, str(path))
+    except DBAPIError as exc:
+        raise SchemaError(f"{path} is a corrupt or unreadable SQLite database: {exc.orig}") from exc
+    finally:
+        readonly.dispose()
+    if version is None and not create:
+        raise StoreError(f"no hadim store at {path} (the database is empty)")
+
+
+def read_schema_version(conn: Connection, where: str) -> int | None:
+    """The store's schema version; None for an empty database. Raises if foreign or too new."""
+    tables = inspect(conn).get_table_names()
+    if not tables:
+        return None
+    if Meta.__tablename__ not in tables:
+        raise SchemaError(f"{where} is not a hadim store (it has tables but no hadim metadata)")
+    facts = {key: value for key, value in conn.execute(select(Meta.key, Meta.value))}
+    if facts.get("application") != migrations.APPLICATION:
+        raise SchemaError(
+            f"{where} is not a hadim store (application={facts.get('application')!r})"
+        )
+    try:
+        version = int(facts["schema_version"])
+    except (KeyError, ValueError) as exc:
+        raise SchemaError(f"{where} is a corrupt hadim store: no valid schema_version") from exc
+    if version > migrations.SCHEMA_VERSION:
+        raise SchemaError(
+            f"{where} has schema version {version} but this hadim reads up to "
+            f"{migrations.SCHEMA_VERSION}: upgrade hadim to open it"
+        )
+    return version
+
+
+def make_engine(url: URL) -> Engine:
+    """One engine for one store object; SQLite gets WAL, busy timeout and foreign keys."""
+    if not is_sqlite(url):
+        return create_engine(url, pool_pre_ping=True)
+    in_memory = sqlite_file(url) is None
+    if in_memory:
+        # One shared connection, or each new connection would see its own empty database.
+        engine = create_engine(url, poolclass=StaticPool, connect_args={"check_same_thread": False})
+    else:
+        engine = create_engine(url, connect_args={"timeout": BUSY_TIMEOUT_S})
+
+    @event.listens_for(engine, "connect")
+    def _on_connect(dbapi_connection, _record) -> None:
+        # pysqlite's own implicit BEGIN is off; the "begin" hook below emits ours.
+        dbapi_connection.isolation_level = None
+        cursor = dbapi_connection.cursor()
+        cursor.execute(f"PRAGMA busy_timeout = {int(BUSY_TIMEOUT_S * 1000)}")
+        cursor.execute("PRAGMA foreign_keys = ON")
+        if not in_memory:
+            cursor.execute("PRAGMA journal_mode = WAL")
+        cursor.close()
+
+    @event.listens_for(engine, "begin")
+    def _on_begin(conn: Connection) -> None:
+        mode = conn.get_execution_options().get(BEGIN_MODE_OPTION, "DEFERRED")
+        conn.exec_driver_sql(f"BEGIN {mode}")
+
+    return engine
+
+
+def prepare_schema(engine: Engine, where: str, *, create: bool) -> None:
+    """Create the tables in an empty database, or migrate an older schema, in one transaction."""
+    with engine.connect() as conn:
+        conn = conn.execution_options(**{BEGIN_MODE_OPTION: "IMMEDIATE"})
+        with conn.begin():
+            version = read_schema_version(conn, where)
+            if version is None:
+                if not create:
+                    raise StoreError(f"no hadim store at {where}")
+                Base.metadata.create_all(conn)
+                conn.execute(
+                    Meta.__table__.insert(),
+                    [
+                        {"key": "application", "value": migrations.APPLICATION},
+                        {"key": "schema_version", "value": str(migrations.SCHEMA_VERSION)},
+                    ],
+                )
+            elif version < migrations.SCHEMA_VERSION:
+                _migrate(conn, version, where)
+
+
+def _migrate(conn: Connection, version: int, where: str) -> None:
+    try:
+        steps = migrations.plan(version, migrations.SCHEMA_VERSION, migrations.MIGRATIONS)
+    except LookupError as exc:
+        raise SchemaError(f"cannot upgrade {where}: {exc}") from exc
+    for step in steps:
+        step.apply(conn)
+    conn.execute(
+        Meta.__table__.update()
+        .where(Meta.key == "schema_version")
+        .values(value=str(migrations.SCHEMA_VERSION))
+    )

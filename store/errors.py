@@ -1,0 +1,28 @@
+"""Errors the store raises: each message is one line a user can act on.
+
+The CLI prints the message of any :class:`StoreError` on one line and exits with status 2.
+"""
+
+from __future__ import annotations
+
+
+class StoreError(Exception):
+    """Base of every error the store raises on purpose (bad input, unusable store)."""
+
+    exit_code = 2
+
+
+class UnknownRun(StoreError):
+    """No run has the given name."""
+
+
+class SchemaError(StoreError):
+    """The file is not a hadim store, is corrupt, or has a schema this hadim cannot read."""
+
+
+class RunLocked(StoreError):
+    """Another live process holds the run's lock (or ours was taken over as stale)."""
+
+
+class CodecError(StoreError):
+    """A value cannot be encoded, or a stored blob is refused (not .npy, object dtype, bad JSON)."""

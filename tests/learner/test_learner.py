@@ -1,0 +1,97 @@
+"""The learner as a whole, at small sizes: discovery, determinism, evaluation isolation."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from hadim_cli.config import load_config
+from hadim_cli.evaluation.runner import evaluate
+from hadim_cli.evaluation.tasks import load_task
+from hadim_cli.learner.hierarchy import Hierarchy
+from hadim_cli.learner.spaces import ACTION, Property, Role, RoleSpace
+from hadim_cli.learner.state import learner_state
+from hadim_cli.session import Session
+
+ROBOT_POSITION = RoleSpace(Role.ROBOT, Property.POSITION)
+ROBOT_HEADING = RoleSpace(Role.ROBOT, Property.HEADING)
+
+
+@pytest.fixture(scope="module")
+def trained() -> Session:
+    session = Session(load_config(), seed=0)
+    session.run(300)
+    return session
+
+
+def test_short_session_discovers_moving_itself(trained):
+    movers = [a for a in trained.learner.hierarchy.with_output(ROBOT_POSITION)
+              if a.input is ACTION]
+    assert movers, "no affordance moves the robot from primitive actions"
+    created = [e for e in trained.learner.hierarchy.events if e.kind == "created"
+               and e.output == "robot.position" and e.input == "action"]
+    assert created[0].iteration <= 100  # the paper: t ≈ 25
+    # Its context converges to the heading: action → displacement is not a function without it.
+    assert ROBOT_HEADING in movers[0].contexts
+    assert movers[0].competence > 0.5
+
+
+def test_short_session_moves_the_robot_to_targets(trained):
+    result = evaluate(trained.learner, trained.config.world, load_task("move-robot"))
+    assert result.score > 0.5
+    assert all(p.actions <= load_task("move-robot").budget for p in result.points)
+
+
+def test_evaluation_changes_nothing_of_the_learner(trained):
+    before_json, before_arrays = learner_state(trained.learner)
+    rng_before = trained.learner_rng.bit_generator.state
+    digest = trained.learner.dataset.sha256()
+    evaluate(trained.learner, trained.config.world, load_task("push-object"))
+    after_json, after_arrays = learner_state(trained.learner)
+    assert trained.learner.dataset.sha256() == digest
+    assert trained.learner_rng.bit_generator.state == rng_before
+    assert after_json == before_json
+    assert before_arrays.keys() == after_arrays.keys()
+    for key, value in before_arrays.items():
+        assert np.array_equal(value, after_arrays[key]), key
+
+
+def test_same_seed_same_history_other_seed_other():
+    def run(seed: int) -> tuple[str, list]:
+        session = Session(load_config(), seed=seed)
+        session.run(200)
+        return session.learner.dataset.sha256(), session.learner.hierarchy.events
+
+    a, b, c = run(3), run(3), run(4)
+    assert a == b
+    assert a[0] != c[0]
+
+
+def test_candidate_inputs_never_close_a_cycle(trained):
+    h: Hierarchy = trained.learner.hierarchy
+    for output in (ROBOT_POSITION, ROBOT_HEADING):
+        for inp in h.candidate_inputs(output):
+            assert inp != output
+            assert (inp, output) not in {(a.input, a.output) for a in h}
+
+
+def test_evaluating_during_training_leaves_training_unchanged():
+    """Evaluating after every episode gives the same D and the same H as never evaluating.
+
+    At this size (seed 1, 700 iterations, pushing affordances present) it failed while models
+    rebuilt their neighbour indexes lazily at query time: evaluation's queries changed the
+    scales training used afterwards.
+    """
+    from hadim_cli.runs import evaluate_tasks
+
+    def run(with_evaluation: bool) -> tuple[str, list]:
+        session = Session(load_config(), seed=1)
+        while session.iteration < 700:
+            session.run_episode()
+            if with_evaluation:
+                evaluate_tasks(session, ("move-robot", "push-object"))
+        return session.learner.dataset.sha256(), session.learner.hierarchy.events
+
+    quiet, evaluated = run(False), run(True)
+    assert quiet[0] == evaluated[0]
+    assert quiet[1] == evaluated[1]

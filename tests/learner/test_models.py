@@ -1,0 +1,216 @@
+"""Local linear forward/inverse models: accuracy, exact incremental kNN, LOO, state."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from hadim_cli.learner.models import LocalLinearModel, SpaceScale
+
+A = np.array([[1.0, 0.5], [-0.3, 0.8]])
+B = np.array([[0.4, 0.0], [0.1, -0.6]])
+
+
+def linear_data(rng: np.random.Generator, n: int, noise: float = 0.0, context: bool = True):
+    x = rng.uniform(-1, 1, (n, 2))
+    c = rng.uniform(0, 5, (n, 2)) if context else np.empty((n, 0))
+    y = x @ A.T + (c @ B.T if context else 0.0) + rng.normal(0, noise, (n, 2))
+    return x, c, y
+
+
+def rotate(x: np.ndarray, theta: np.ndarray) -> np.ndarray:
+    co, si = np.cos(theta[:, 0]), np.sin(theta[:, 0])
+    return np.c_[co * x[:, 0] - si * x[:, 1], si * x[:, 0] + co * x[:, 1]]
+
+
+def brute_knn(model: LocalLinearModel, which: str, q: np.ndarray, k: int) -> np.ndarray:
+    """Neighbour indices by brute force, with the index's own normalisation."""
+    x, c, y = model.data()
+    pts = {"forward": np.c_[x, c], "inverse": np.c_[y, c], "outcome": y}[which]
+    scale = model.index_scale(which)
+    per_col = scale.per_column()
+    cols = {"forward": np.r_[0:2, 2:2 + c.shape[1]],
+            "inverse": np.r_[per_col.size - 2:per_col.size, 2:2 + c.shape[1]],
+            "outcome": np.r_[per_col.size - 2:per_col.size]}[which]
+    d = np.linalg.norm((q[:, None, :] - pts[None]) / per_col[cols], axis=2)
+    return np.argsort(d, axis=1)[:, :k]
+
+
+@pytest.mark.parametrize("context", [True, False])
+def test_recovers_linear_map(context: bool) -> None:
+    rng = np.random.default_rng(0)
+    x, c, y = linear_data(rng, 1500, noise=0.002, context=context)
+    model = LocalLinearModel(2, 2, [2] if context else [], x_low=[-1, -1], x_high=[1, 1])
+    model.add(x, c if context else None, y)
+    xq, cq, yq = linear_data(rng, 200, context=context)
+    cq_arg = cq if context else None
+    assert np.abs(model.predict(xq, cq_arg) - yq).max() < 0.02
+    jac = model.jacobian(xq, cq_arg)
+    assert jac.shape == (200, 2, 2)
+    assert np.abs(jac - A).mean() < 0.03
+    for i in range(20):
+        x_true = rng.uniform(-0.8, 0.8, 2)
+        goal = A @ x_true + (B @ cq[i] if context else 0.0)
+        res = model.infer(goal, cq[i] if context else None)
+        reached = A @ res.x + (B @ cq[i] if context else 0.0)
+        assert np.linalg.norm(reached - goal) < 0.03
+        assert res.error < 0.05
+        assert np.all(np.abs(res.x) <= 1.0)
+        assert res.context.shape == ((2,) if context else (0,))
+        assert 0 <= res.neighbour_index < model.n
+
+
+def test_infer_without_context_returns_a_neighbours_context() -> None:
+    rng = np.random.default_rng(1)
+    x, c, y = linear_data(rng, 1000)
+    model = LocalLinearModel(2, 2, [2])
+    model.add(x, c, y)
+    goal = y[17] + 0.01
+    res = model.infer(goal)
+    _, cs, _ = model.data()
+    np.testing.assert_array_equal(res.context, cs[res.neighbour_index])
+    np.testing.assert_allclose(res.y_predicted, A @ res.x + B @ res.context, atol=0.02)
+
+
+def test_infer_clips_to_input_bounds() -> None:
+    rng = np.random.default_rng(2)
+    x, c, y = linear_data(rng, 500, context=False)
+    model = LocalLinearModel(2, 2, [], x_low=[-1, -1], x_high=[1, 1])
+    model.add(x, None, y)
+    res = model.infer(A @ np.array([3.0, 3.0]))  # out of reach
+    assert np.all(res.x <= 1.0) and np.all(res.x >= -1.0)
+
+
+def test_rotation_by_context_angle() -> None:
+    rng = np.random.default_rng(3)
+    n = 3000
+    x, th = rng.uniform(-1, 1, (n, 2)), rng.uniform(-np.pi, np.pi, (n, 1))
+    model = LocalLinearModel(2, 2, [1])
+    model.add(x, th, 0.1 * rotate(x, th))
+    xq, tq = rng.uniform(-1, 1, (500, 2)), rng.uniform(-np.pi, np.pi, (500, 1))
+    err = np.linalg.norm(model.predict(xq, tq) - 0.1 * rotate(xq, tq), axis=1) / 0.1
+    assert np.median(err) < 0.03
+    assert np.quantile(err, 0.9) < 0.08
+    x_true = np.array([0.5, -0.2])
+    goal = 0.1 * rotate(x_true[None], tq[:1])[0]
+    res = model.infer(goal, tq[0])
+    assert np.linalg.norm(0.1 * rotate(res.x[None], tq[:1])[0] - goal) < 0.005
+
+
+def test_incremental_knn_is_exact() -> None:
+    rng = np.random.default_rng(4)
+    x, c, y = linear_data(rng, 900, noise=0.05)
+    model = LocalLinearModel(2, 2, [2])
+    start = 0
+    for size in [5, 1, 30, 3, 100, 1, 1, 200, 7, 250, 300, 2]:
+        model.add(x[start:start + size], c[start:start + size], y[start:start + size])
+        start += size
+        xq, cq, yq = linear_data(rng, 25, noise=0.05)
+        k = min(10, model.n)
+        _, nb = model.forward_neighbours(xq, cq, k)
+        np.testing.assert_array_equal(nb, brute_knn(model, "forward", np.c_[xq, cq], k))
+        _, nb = model.inverse_neighbours(yq, cq, k)
+        np.testing.assert_array_equal(nb, brute_knn(model, "inverse", np.c_[yq, cq], k))
+        _, nb = model.inverse_neighbours(yq, None, k)
+        np.testing.assert_array_equal(nb, brute_knn(model, "outcome", yq, k))
+    assert start == x.shape[0]
+    # Some rows are still in the brute-force buffer: the test exercised the merge.
+    assert model.state()["built"][0, 0] < model.n
+    # Once rebuilt over all rows it answers like a model built in one go.
+    model.rebuild()
+    whole = LocalLinearModel(2, 2, [2])
+    whole.add(x, c, y)
+    xq, cq, _ = linear_data(rng, 100)
+    np.testing.assert_array_equal(model.forward_neighbours(xq, cq)[1],
+                                  whole.forward_neighbours(xq, cq)[1])
+    np.testing.assert_array_equal(model.predict(xq, cq), whole.predict(xq, cq))
+
+
+def test_loo_excludes_self() -> None:
+    rng = np.random.default_rng(5)
+    x, c, y = linear_data(rng, 400, noise=0.05)
+    model = LocalLinearModel(2, 2, [2])
+    model.add(x, c, y)
+    idx = np.arange(0, 400, 7)
+    loo = model.predict_loo(idx)
+    inside = model.predict(x[idx], c[idx])
+    assert np.all(np.linalg.norm(loo - inside, axis=1) > 1e-9)
+    assert model.predict_loo().shape == (400, 2)
+    np.testing.assert_array_equal(model.predict_loo()[idx], loo)
+    # Noiseless linear map: LOO is exact up to the ridge's bias.
+    x, c, y = linear_data(rng, 400)
+    exact = LocalLinearModel(2, 2, [2], ridge=1e-9)
+    exact.add(x, c, y)
+    assert np.abs(exact.predict_loo() - y).max() < 1e-5
+    default = LocalLinearModel(2, 2, [2])
+    default.add(x, c, y)
+    err = np.linalg.norm(default.predict_loo() - y, axis=1)
+    assert np.quantile(err, 0.95) < 1e-2  # the outputs' scale is ≈ 2
+
+
+def test_state_round_trip_is_identical() -> None:
+    rng = np.random.default_rng(6)
+    x, c, y = linear_data(rng, 700, noise=0.01)
+    model = LocalLinearModel(2, 2, [2], x_low=[-1, -1], x_high=[1, 1])
+    model.add(x[:500], c[:500], y[:500])
+    model.infer(y[0])
+    model.add(x[500:], c[500:], y[500:])  # leaves rows in the buffers
+    model.predict(x[:3], c[:3])
+    state = model.state()
+    assert all(isinstance(v, np.ndarray) for v in state.values())
+    copy = LocalLinearModel.from_state(state)
+    assert copy.params().keys() == model.params().keys()
+    xq, cq, yq = linear_data(rng, 50)
+    np.testing.assert_array_equal(copy.predict(xq, cq), model.predict(xq, cq))
+    np.testing.assert_array_equal(copy.predict_loo(), model.predict_loo())
+    for i in range(5):
+        a, b = copy.infer(yq[i], cq[i]), model.infer(yq[i], cq[i])
+        np.testing.assert_array_equal(a.x, b.x)
+        assert a.neighbour_index == b.neighbour_index
+        a, b = copy.infer(yq[i]), model.infer(yq[i])
+        np.testing.assert_array_equal(a.x, b.x)
+    # Both keep evolving identically.
+    x2, c2, y2 = linear_data(rng, 300)
+    for m in (copy, model):
+        for j in range(0, 300, 10):
+            m.add(x2[j:j + 10], c2[j:j + 10], y2[j:j + 10])
+            m.predict(xq, cq)
+    np.testing.assert_array_equal(copy.predict(xq, cq), model.predict(xq, cq))
+    again = LocalLinearModel.from_state(model.state(), **model.params())
+    np.testing.assert_array_equal(again.predict(xq, cq), model.predict(xq, cq))
+
+
+def test_small_models_fall_back_gracefully() -> None:
+    model = LocalLinearModel(2, 2, [2])
+    with pytest.raises(ValueError):
+        model.predict(np.zeros((1, 2)), np.zeros((1, 2)))
+    model.add(np.array([[0.1, 0.2], [0.3, -0.1]]), np.array([[1.0, 2.0], [1.5, 2.5]]),
+              np.array([[1.0, 0.0], [3.0, 0.0]]))
+    # Two rows: under-determined, the weighted mean of the neighbours.
+    pred = model.predict(np.array([[0.2, 0.0]]), np.array([[1.2, 2.2]]))
+    assert 1.0 <= pred[0, 0] <= 3.0
+    np.testing.assert_allclose(model.predict_loo(), [[3.0, 0.0], [1.0, 0.0]])
+    assert model.infer(np.array([2.0, 0.0])).x.shape == (2,)
+
+
+def test_space_scale_keeps_geometry_within_a_space() -> None:
+    data = np.array([[3.0, 4.0, 10.0], [0.0, 0.0, 12.0], [-3.0, -4.0, 14.0]])
+    scale = SpaceScale.fit(data, [2, 1], [False, True])
+    # change space: RMS norm of the non-zero rows; state space: RMS distance to its mean
+    np.testing.assert_allclose(scale.values, [5.0, np.sqrt(8.0 / 3.0)])
+    np.testing.assert_allclose(scale.per_column(), [5.0, 5.0, np.sqrt(8.0 / 3.0)])
+    assert scale.drift(scale) == 0.0
+    const = SpaceScale.fit(np.ones((4, 1)), [1], [True])
+    assert const.values[0] > 0
+
+
+def test_bad_shapes_are_rejected() -> None:
+    model = LocalLinearModel(2, 2, [2])
+    with pytest.raises(ValueError):
+        model.add(np.zeros((3, 2)), None, np.zeros((3, 2)))
+    with pytest.raises(ValueError):
+        model.add(np.zeros((3, 2)), np.zeros((3, 2)), np.zeros((2, 2)))
+    with pytest.raises(ValueError):
+        model.add(np.zeros((3, 3)), np.zeros((3, 2)), np.zeros((3, 2)))
+    with pytest.raises(ValueError):
+        model.add(np.full((1, 2), np.nan), np.zeros((1, 2)), np.zeros((1, 2)))

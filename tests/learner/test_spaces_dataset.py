@@ -1,0 +1,69 @@
+from __future__ import annotations
+
+import numpy as np
+
+from hadim_cli.learner.dataset import Dataset, dataset_digest
+from hadim_cli.learner.spaces import (
+    ACTION,
+    Role,
+    RoleSpace,
+    Rows,
+    SpaceReader,
+    context_candidates,
+    parse_space,
+)
+from hadim_cli.world.layout import LayoutBounds, ObservationLayout, Property
+
+
+def _layout(n=3):
+    return ObservationLayout.build(n, 4, LayoutBounds(2, 2, 1.5, 0.25, 0.6))
+
+
+def test_space_names_round_trip():
+    spaces = [ACTION, RoleSpace(Role.ROBOT, Property.POSITION),
+              RoleSpace(Role.TARGET, Property.POSITION, Role.ROBOT),
+              RoleSpace(Role.TARGET, Property.POSITION, Role.TOOL),
+              RoleSpace(Role.TOOL, Property.RADIUS)]
+    for s in spaces:
+        assert parse_space(s.name) == s
+    assert RoleSpace(Role.TARGET, Property.POSITION, Role.ROBOT).name == "target-robot"
+
+
+def test_reader_reads_bound_entities_and_relative_positions():
+    layout = _layout()
+    reader = SpaceReader(layout)
+    obs = np.arange(layout.size, dtype=float)[None, :]
+    rows = Rows(np.array([0, 0]), np.array([1, 3]), np.array([2, 1]))
+    target = reader.read(RoleSpace(Role.TARGET, Property.POSITION), obs, rows)
+    assert np.array_equal(target[0], obs[0, layout.space("obj1", Property.POSITION).slice])
+    assert np.array_equal(target[1], obs[0, layout.space("obj3", Property.POSITION).slice])
+    rel = reader.read(RoleSpace(Role.TARGET, Property.POSITION, Role.TOOL), obs, rows)
+    tool = reader.read(RoleSpace(Role.TOOL, Property.POSITION), obs, rows)
+    assert np.allclose(rel, target - tool)
+    robot = reader.read(RoleSpace(Role.ROBOT, Property.LIDAR), obs, rows)
+    assert robot.shape == (2, 4)
+
+
+def test_context_candidates_follow_roles():
+    names = {c.name for c in context_candidates(frozenset({Role.ROBOT}))}
+    assert "target-robot" not in names and "robot.heading" in names
+    names = {c.name for c in context_candidates(frozenset({Role.TARGET, Role.TOOL}))}
+    assert {"target-robot", "target-tool", "tool-robot", "target.radius"} <= names
+
+
+def test_dataset_records_outcomes_and_episodes():
+    d = Dataset(obs_size=3)
+    d.start_episode()
+    for i in range(300):  # crosses the initial capacity
+        d.append(np.array([0.1, -0.1]), np.full(3, float(i)), np.full(3, float(i) + 0.5))
+    d.start_episode()
+    d.append(np.zeros(2), np.zeros(3), np.ones(3))
+    assert len(d) == 301
+    assert np.allclose(d.outcomes[:300], 0.5) and np.allclose(d.outcomes[300], 1.0)
+    assert [(e.start, e.stop) for e in d.episodes()] == [(0, 300), (300, 301)]
+    digest = d.sha256()
+    assert digest == dataset_digest(d.actions, d.contexts, d.outcomes)
+    d2 = Dataset(obs_size=3)
+    d2.extend(d.actions[:300], d.contexts[:300], d.outcomes[:300])
+    d2.extend(d.actions[300:], d.contexts[300:], d.outcomes[300:])
+    assert d2.sha256() == digest

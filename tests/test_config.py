@@ -1,0 +1,93 @@
+from __future__ import annotations
+
+import dataclasses
+
+import pytest
+
+from hadim_cli.app import app
+from hadim_cli.config import (
+    Config,
+    WorldConfig,
+    config_from_dict,
+    field_docs,
+    load_config,
+    parse_override,
+    with_overrides,
+)
+from hadim_cli.errors import ConfigError
+
+
+def test_default_toml_matches_dataclass_defaults():
+    assert load_config() == Config()
+
+
+def test_every_field_is_documented():
+    for section in dataclasses.fields(Config):
+        cls = type(getattr(Config(), section.name))
+        docs = field_docs(cls)
+        missing = [f.name for f in dataclasses.fields(cls) if not docs.get(f.name)]
+        assert not missing, f"{cls.__name__} fields without a docstring: {missing}"
+
+
+def test_override_types():
+    assert parse_override("world.n_green=3") == {"world": {"n_green": 3}}
+    assert parse_override("world.random_heading=false") == {"world": {"random_heading": False}}
+    config = load_config(overrides=["world.room_width=5", "world.n_red=1"])
+    assert config.world.room_width == 5.0 and isinstance(config.world.room_width, float)
+    assert config.world.n_red == 1
+
+
+def test_file_then_overrides(tmp_path):
+    path = tmp_path / "mine.toml"
+    path.write_text("[world]\nn_green = 2\nlidar_rays = 8\n")
+    config = load_config(path, ["world.n_green=4"])
+    assert (config.world.n_green, config.world.lidar_rays) == (4, 8)
+
+
+@pytest.mark.parametrize(
+    ("override", "message"),
+    [
+        ("world.nope=1", "unknown config key 'world.nope'"),
+        ("nosection.x=1", "unknown config key 'nosection'"),
+        ("world.n_green=1.5", "'world.n_green' must be an integer"),
+        ("world.robot_radius=-0.1", "'world.robot_radius' = -0.1 is impossible"),
+        ("world.n_green=200", "do not fit"),
+        ("world.object_radius_max=0.01", "world.object_radius_max"),
+        ("world.random_heading=1", "must be true or false"),
+        ("world.lidar_range=nan", "must be finite"),
+        ("world", "section.key=value"),
+    ],
+)
+def test_bad_values_name_the_key(override, message):
+    with pytest.raises(ConfigError, match=message.replace(".", r"\.").replace("(", r"\(")):
+        load_config(overrides=[override])
+
+
+def test_round_trip_through_dict():
+    config = with_overrides(Config(), ["world.n_green=2"])
+    assert config_from_dict(config.to_dict()) == config
+    assert config.world == dataclasses.replace(WorldConfig(), n_green=2)
+
+
+def test_missing_or_broken_file(tmp_path):
+    with pytest.raises(ConfigError, match="not found"):
+        load_config(tmp_path / "absent.toml")
+    bad = tmp_path / "bad.toml"
+    bad.write_text("[world\n")
+    with pytest.raises(ConfigError, match="not valid TOML"):
+        load_config(bad)
+
+
+def test_cli_bad_key_is_one_line_and_nonzero(runner):
+    result = runner.invoke(app, ["config", "show", "--set", "world.bogus=1"])
+    assert result.exit_code == 2
+    assert result.output.strip().count("\n") == 0
+    assert "unknown config key 'world.bogus'" in result.output
+
+
+def test_cli_show_json(runner):
+    import json
+
+    result = runner.invoke(app, ["config", "show", "--json", "--set", "world.n_red=2"])
+    assert result.exit_code == 0, result.output
+    assert json.loads(result.output)["world"]["n_red"] == 2

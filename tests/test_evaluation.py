@@ -1,0 +1,40 @@
+from __future__ import annotations
+
+import pytest
+
+from hadim_cli.errors import HadimError
+from hadim_cli.evaluation.metric import point_error, task_score
+from hadim_cli.evaluation.tasks import load_task, load_task_file, task_names
+
+
+def test_metric():
+    assert point_error((0, 0), (0, 0), (1, 0)) == 1.0  # did nothing
+    assert point_error((0, 0), (1, 0), (1, 0)) == 0.0  # reached
+    assert point_error((0, 0), (0.5, 0), (1, 0)) == pytest.approx(0.5)
+    assert point_error((0, 0), (-3, 0), (1, 0)) == 1.0  # worse is capped
+    assert task_score([1.0, 1.0]) == 0.0
+    assert task_score([0.0, 0.0]) == 1.0
+    with pytest.raises(ValueError):
+        task_score([])
+
+
+def test_shipped_tasks_load():
+    assert {"move-robot", "push-object", "push-with-tool"} <= set(task_names())
+    for name in ("move-robot", "push-object", "push-with-tool"):
+        task = load_task(name)
+        assert len(task.scene.objects) == 9 and task.points and task.budget > 0
+    assert load_task("push-with-tool").tool == "obj2"
+
+
+def test_bad_tasks(tmp_path):
+    with pytest.raises(HadimError, match="unknown task 'nope'"):
+        load_task("nope")
+    bad = tmp_path / "t.toml"
+    bad.write_text('entity = "robot"\nproperty = "position"\npoints = [[1, 2, 3]]\nbudget = 5\n'
+                   '[scene]\n')
+    with pytest.raises(HadimError, match="pair"):
+        load_task_file(bad)
+    bad.write_text('entity = "robot"\nproperty = "position"\npoints = [[1, 2]]\nbudget = 5\n'
+                   'colour = 1\n[scene]\n')
+    with pytest.raises(HadimError, match="unknown key 'colour'"):
+        load_task_file(bad)

@@ -1,0 +1,40 @@
+"""Small hand-built worlds for the physics tests."""
+
+from __future__ import annotations
+
+import dataclasses
+
+import pytest
+
+from hadim_cli.config import WorldConfig
+from hadim_cli.world.scene import ObjectSpec, Scene
+from hadim_cli.world.world import World
+
+GREEN = (0.1, 0.8, 0.1)
+RED = (0.8, 0.1, 0.1)
+
+
+def config(**changes: object) -> WorldConfig:
+    return dataclasses.replace(WorldConfig(), **changes)
+
+
+def green(x: float, y: float, radius: float = 0.1, height: float = 0.2) -> ObjectSpec:
+    return ObjectSpec(x, y, radius, height, GREEN, pushable=True)
+
+
+def red(x: float, y: float, radius: float = 0.1, height: float = 0.2) -> ObjectSpec:
+    return ObjectSpec(x, y, radius, height, RED, pushable=False)
+
+
+def world_with(*objects: ObjectSpec, heading: float = 0.0, x: float = 0.0, y: float = 0.0,
+               **changes: object) -> World:
+    """A world holding exactly `objects` (its config counts them), reset to that scene."""
+    n_green = sum(o.pushable for o in objects)
+    world = World(config(n_green=n_green, n_red=len(objects) - n_green, **changes))
+    world.reset(scene=Scene(objects=tuple(objects), robot_x=x, robot_y=y, robot_heading=heading))
+    return world
+
+
+@pytest.fixture
+def default_world() -> World:
+    return World(WorldConfig())
