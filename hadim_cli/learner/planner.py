@@ -29,6 +29,10 @@ STEP_QUANTILE = 0.9
 CONTEXT_SUPPORT = 0.1
 """Contexts further apart than this (in spreads of the context space) are not the same."""
 APPROACH_MARGIN = 0.06
+SUPPORT_NEIGHBOURS = 3
+"""Forward neighbours looked at to decide whether a context is supported by data."""
+SUBGOAL_TOLERANCE = 0.15
+"""A sub-goal counts as reached within this fraction of its affordance's typical step."""
 
 
 class Actuator(Protocol):
@@ -106,9 +110,12 @@ class Planner:
             current = self.value(aff.output, actuator.obs, b)
             gap = goal - current
             dist = float(np.linalg.norm(gap))
-            if dist <= max(self.config.reach_tolerance * start, self.config.zero_eps):
-                break
             step = self.step_size(aff)
+            # A sub-goal (depth > 0) serves a parent that replans after it: chasing its last
+            # few millimetres would cost whole actions (a turn, a nudge) for nothing.
+            slack = SUBGOAL_TOLERANCE * step if depth > 0 else 0.0
+            if dist <= max(self.config.reach_tolerance * start, self.config.zero_eps, slack):
+                break
             delta = gap if dist <= step else gap * (step / dist)
             done = self._one_step(aff, b, delta, actuator, budget - used, depth)
             used += max(done, 0)
@@ -131,11 +138,20 @@ class Planner:
         here = aff.model.infer(delta, c if c.size else None)
         progress = 1.0 - np.linalg.norm(here.y_predicted - delta) / max(np.linalg.norm(delta),
                                                                          1e-9)
-        # The inverse answer is only trusted where such outcomes were seen: if the current
-        # context is far from the context of the data it comes from, reach that context first.
-        unsupported = (self._has_reachable_relation(aff)
-                       and self.context_gap(aff, c, here.context) > CONTEXT_SUPPORT)
-        if (progress < 0.3 or unsupported) and aff.contexts and depth < MAX_DEPTH:
+        relations = self.reachable_relations(aff)
+        if relations.any() and depth < MAX_DEPTH:
+            # The inverse answer is only trusted where such outcomes were seen: if the current
+            # relation (e.g. target-robot) is far from that of the data it comes from, first
+            # reach the relation from which outcomes like `delta` are usually obtained.
+            unsupported = self.support_gap(aff, here.x, c, relations) > CONTEXT_SUPPORT
+            if unsupported or progress < 0.3:
+                needed = self.needed_context(aff, delta, c, relations)
+                if self.context_gap(aff, c, needed, relations) > CONTEXT_SUPPORT:
+                    used = self._reach_context(aff, b, needed, actuator, budget, depth)
+                    if used > 0:
+                        return used
+        elif progress < 0.3 and aff.contexts and depth < MAX_DEPTH:
+            # A pose context (e.g. the heading for a move): reach that of the best answer.
             anywhere = aff.model.infer(delta)
             used = self._reach_context(aff, b, anywhere.context, actuator, budget, depth)
             if used > 0:
@@ -144,34 +160,79 @@ class Planner:
             return -1
         return self.execute(aff.input, here.x, b, actuator, budget, depth, exclude=aff.id)
 
-    def _has_reachable_relation(self, aff: Affordance) -> bool:
-        """Whether `aff` has a relative-position context (e.g. target-robot) another affordance
-        can drive. Only such spatial relations are checked for support: for the robot's own
-        pose (heading) the progress test suffices, and turning first at every step costs more
-        than it gives."""
-        for space in aff.contexts:
+    def reachable_relations(self, aff: Affordance) -> np.ndarray:
+        """Per context space of `aff`: whether it is a relative position (e.g. target-robot)
+        that another affordance can drive. Only such spatial relations are checked for
+        support: for the robot's own pose (heading) the progress test suffices, and turning
+        first at every step costs more than it gives."""
+        out = np.zeros(len(aff.contexts), dtype=bool)
+        probe = Binding(0 if aff.has_target else -1, 0 if aff.has_tool else -1)
+        for i, space in enumerate(aff.contexts):
             if space.relative_to is None:
                 continue
-            probe = Binding(0 if aff.has_target else -1, 0 if aff.has_tool else -1)
             plan = self._context_goal(space, np.zeros(2), np.zeros(self.reader.layout.size),
                                       probe)
-            if plan is not None and plan[0] != aff.output and [
-                    a for a in self.h.controllers(plan[0]) if a.id != aff.id]:
-                return True
-        return False
+            out[i] = plan is not None and plan[0] != aff.output and any(
+                a.id != aff.id for a in self.h.controllers(plan[0]))
+        return out
 
-    def context_gap(self, aff: Affordance, c: np.ndarray, other: np.ndarray) -> float:
-        """Largest distance between two contexts, per context space, in units of its spread."""
+    def needed_context(self, aff: Affordance, delta: np.ndarray, c: np.ndarray,
+                       relations: np.ndarray) -> np.ndarray:
+        """The context from which `aff` usually produces outcomes like `delta`.
+
+        Among the rows whose outcome is nearest `delta` and whose fixed contexts (those not in
+        `relations`: e.g. the object's radius) are nearest the current ones, the relation
+        values where most of them agree (a kernel density mode): one push seen from an odd
+        place (a bounce, a chain of contacts) must not send the robot there. The result is `c`
+        with its relation columns replaced.
+        """
+        x_cols = aff.model.dx
+        _, ctx, y = aff.model.data()
+        scale = aff.model.scales().per_column()
+        ctx_scale, y_scale = scale[x_cols:x_cols + ctx.shape[1]], scale[x_cols + ctx.shape[1]:]
+        free = np.repeat(relations, aff.model.context_dims)
+        query = np.concatenate([(y - delta) / y_scale, ((ctx - c) / ctx_scale)[:, ~free]], 1)
+        k = min(2 * self.config.k_inverse, y.shape[0])
+        dist2 = np.einsum("ij,ij->i", query, query)
+        near = np.sort(np.argpartition(dist2, k - 1)[:k])  # sorted: a deterministic order
+        # Each row counts by how close its outcome is to `delta` (a Gaussian whose width is the
+        # median distance of the neighbours), and is scored by that weight times the weighted
+        # number of rows agreeing with its relation.
+        closeness = np.exp(-dist2[near] / max(float(np.median(dist2[near])), 1e-12))
+        rel = ctx[near][:, free] / ctx_scale[free]
+        d2 = np.sum((rel[:, None, :] - rel[None, :, :]) ** 2, axis=2)
+        agreement = np.exp(-d2 / (2 * CONTEXT_SUPPORT) ** 2) @ closeness
+        travel = np.linalg.norm(rel - c[free] / ctx_scale[free], axis=1)
+        best = int(np.argmax(closeness * agreement - 1e-3 * travel))
+        needed = c.copy()
+        needed[free] = ctx[near[best]][free]
+        return needed
+
+    def support_gap(self, aff: Affordance, x: np.ndarray, c: np.ndarray,
+                    relations: np.ndarray) -> float:
+        """How far the data behind the forward prediction of `x` in context `c` are from `c`:
+        the smallest relation gap (`context_gap`) of its nearest stored rows. The inverse
+        model's own row is no test: its (outcome, context) search is led by the outcome."""
+        _, nb = aff.model.forward_neighbours(x, c, k=SUPPORT_NEIGHBOURS)
+        _, ctx, _ = aff.model.data()
+        return min(self.context_gap(aff, c, ctx[i], relations) for i in nb[0])
+
+    def context_gap(self, aff: Affordance, c: np.ndarray, other: np.ndarray,
+                    spaces: np.ndarray | None = None) -> float:
+        """Largest distance between two contexts, per context space (of those in the mask
+        `spaces`, all by default), in units of its spread."""
         if not aff.contexts or c.size == 0:
             return 0.0
         _, data, _ = aff.model.data()
         spread = data.std(axis=0)
         gap, offset = 0.0, 0
-        for dim in aff.model.context_dims:
+        for i, dim in enumerate(aff.model.context_dims):
             sl = slice(offset, offset + dim)
+            offset += dim
+            if spaces is not None and not spaces[i]:
+                continue
             scale = max(float(np.linalg.norm(spread[sl])), 1e-6)
             gap = max(gap, float(np.linalg.norm(c[sl] - other[sl])) / scale)
-            offset += dim
         return gap
 
     def execute(self, space: RoleSpace, x: np.ndarray, b: Binding, actuator: Actuator,
