@@ -70,13 +70,20 @@ class EvalActuator:
 
 
 def choose_affordance(learner: Learner, task: Task) -> Affordance | None:
-    """The most competent affordance of H that drives the task's entity and property."""
+    """The affordance of H the task evaluates: among those that drive the task's entity and
+    property, the most competent with the task's `affordance_input`, else the most competent.
+
+    A model's competence scores its predictions, not how well it controls: `action →
+    target.position` predicts about as well as `robot.position → target.position` but, blind
+    to the robot's heading, pushes far worse. Hence tasks name the affordance they evaluate,
+    as the paper evaluates its A0, A1 and A2."""
     if task.entity == "robot":
         candidates = learner.hierarchy.with_output(RoleSpace(Role.ROBOT, Property.POSITION))
     else:
         candidates = [a for a in learner.hierarchy.with_output(
             RoleSpace(Role.TARGET, Property.POSITION)) if a.has_tool == (task.tool is not None)]
-    return max(candidates, key=lambda a: a.competence, default=None)
+    named = [a for a in candidates if a.input.name == task.affordance_input]
+    return max(named or candidates, key=lambda a: a.competence, default=None)
 
 
 def _entity_index(world: World, name: str | None, task: Task) -> int:

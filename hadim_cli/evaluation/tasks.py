@@ -32,6 +32,10 @@ class Task:
     target: str | None = None
     tool: str | None = None
     """With a tool, any robot–target contact during a point's attempt fails the point."""
+    affordance_input: str | None = None
+    """The input space (e.g. `robot.position`) of the affordance the task evaluates, as the
+    paper evaluates its A0, A1, A2 by name; None, or no such affordance in H: the most
+    competent affordance that drives the task's property."""
 
 
 def task_names() -> list[str]:
@@ -88,7 +92,7 @@ def _object(raw: Mapping[str, Any], where: str) -> ObjectSpec:
 
 def parse_task(values: Mapping[str, Any], where: str) -> Task:
     known = {"name", "description", "entity", "property", "points", "budget", "scene", "target",
-             "tool"}
+             "tool", "affordance_input"}
     unknown = sorted(set(values) - known)
     if unknown:
         raise HadimError(f"task file {where}: unknown key '{unknown[0]}' "
@@ -114,4 +118,17 @@ def parse_task(values: Mapping[str, Any], where: str) -> Task:
     if entity == "target" and not target:
         raise HadimError(f"task file {where}: entity 'target' needs target = \"objN\"")
     return Task(str(values.get("name", Path(where).stem)), str(values.get("description", "")),
-                entity, "position", points, budget, scene, target, tool)
+                entity, "position", points, budget, scene, target, tool,
+                _affordance_input(values.get("affordance_input"), where))
+
+
+def _affordance_input(value: Any, where: str) -> str | None:
+    from hadim_cli.learner.spaces import parse_space
+
+    if value is None:
+        return None
+    try:
+        return parse_space(str(value)).name
+    except (ValueError, KeyError):
+        raise HadimError(f"task file {where}: 'affordance_input' must name a space such as "
+                         f"'action', 'robot.position' or 'tool.position', got {value!r}") from None
