@@ -22,6 +22,7 @@ from hadim_cli.learner.affordance import Affordance, Fitter, Sample, typical_ste
 from hadim_cli.learner.hierarchy import Event, EventKind, Hierarchy
 from hadim_cli.learner.spaces import (
     OUTPUT_SPACES,
+    Role,
     RoleSpace,
     Rows,
     context_candidates,
@@ -165,20 +166,20 @@ class Adaptation:
 
     def _train_classifier(self, aff: Affordance, sample: Sample,
                           rng: np.random.Generator) -> None:
-        """Positives: targets that moved. Negatives: targets A predicted to move that did not,
-        and the entity the affordance acts from (the robot cannot push itself)."""
+        """Positives: targets that moved. Negatives: targets A was applied to that did not
+        respond, and the entity the affordance acts from (the robot cannot push itself).
+
+        Applied to means touched by the actor (the robot, or the tool for a tool affordance)
+        before an action the model predicts to move it clearly. The model's errors (the robot
+        grazing or backing away from a pushable object) would still make negatives of objects
+        that do respond, so an object that moved at any time of the environment episode is
+        no negative of it: within an episode its properties are the same.
+        """
         if aff.classifier is None:
             return
         f = self.fitter
         moved = f.nonzero(sample.y)
-        negative = np.zeros_like(moved)
-        if aff.model.n >= 3 and (~moved).any():
-            idx = np.flatnonzero(~moved)
-            full = f.values(aff.input, aff.output, aff.contexts, sample.rows.take(idx))
-            predicted = np.linalg.norm(aff.model.predict(full.x, full.c), axis=1)
-            # Only a clear predicted effect that did not happen makes a negative: the model's
-            # small errors must not teach p_A that pushable objects are not.
-            negative[idx] = predicted > max(0.25 * typical_step(aff), 2 * self.config.zero_eps)
+        negative = self._applied_in_vain(aff, sample, moved)
         pick = moved | negative
         if not pick.any():
             return
@@ -196,6 +197,32 @@ class Adaptation:
         labels = np.concatenate([labels, [False]])
         aff.classifier.add(features, labels)
         aff.classifier.train(rng, steps=self.config.classifier_steps)
+
+    def _applied_in_vain(self, aff: Affordance, sample: Sample, moved: np.ndarray) -> np.ndarray:
+        """Rows whose target the actor touched, the model predicted to move, and which did not
+        move at all in the environment episode up to the end of `sample`."""
+        f = self.fitter
+        negative = np.zeros_like(moved)
+        if aff.model.n < 3 or moved.all():
+            return negative
+        actor = Role.TOOL if aff.has_tool else Role.ROBOT
+        idx = np.flatnonzero(~moved)
+        idx = idx[f.touching(sample.rows.take(idx), actor, after=False)]
+        if idx.size == 0:
+            return negative
+        full = f.values(aff.input, aff.output, aff.contexts, sample.rows.take(idx))
+        predicted = np.linalg.norm(aff.model.predict(full.x, full.c), axis=1)
+        # Only a clear predicted effect makes a negative: small errors must not.
+        idx = idx[predicted > max(0.25 * typical_step(aff), 2 * self.config.zero_eps)]
+        if idx.size == 0:
+            return negative
+        t_end = int(sample.rows.t.max()) + 1
+        t = np.arange(f.dataset.episode_start(int(sample.rows.t.min())), t_end, dtype=np.int64)
+        episode = f.values(aff.input, aff.output, (),
+                           f.bindings(aff.output.roles | aff.input.roles, t))
+        responded = np.unique(episode.rows.target[f.nonzero(episode.y)])
+        negative[idx[~np.isin(sample.rows.target[idx], responded)]] = True
+        return negative
 
     # ------------------------------------------------------------------ creation and deletion
     def _creation_rows(self, inp: RoleSpace, out: RoleSpace, rng: np.random.Generator) -> Rows:

@@ -135,15 +135,21 @@ class Fitter:
 
     def touching_robot(self, rows: Rows) -> np.ndarray:
         """Rows whose target is in contact with the robot before or after the action."""
+        return self.touching(rows, Role.ROBOT, after=True)
+
+    def touching(self, rows: Rows, actor: Role, *, after: bool) -> np.ndarray:
+        """Rows whose target is in contact with `actor` (the robot or the tool) before the
+        action, or (with `after`) before or after it."""
         d = self.dataset
-        rel = RoleSpace(Role.TARGET, Property.POSITION, Role.ROBOT)
+        rel = RoleSpace(Role.TARGET, Property.POSITION, actor)
         before = self.reader.read(rel, d.contexts, rows)
-        after = before + self.reader.read(rel, d.outcomes, rows)
         reach = (self.reader.read(RoleSpace(Role.TARGET, Property.RADIUS), d.contexts, rows)[:, 0]
-                 + self.reader.read(RoleSpace(Role.ROBOT, Property.RADIUS), d.contexts, rows)[:, 0]
+                 + self.reader.read(RoleSpace(actor, Property.RADIUS), d.contexts, rows)[:, 0]
                  + CONTACT_MARGIN)
-        return ((np.linalg.norm(before, axis=1) <= reach)
-                | (np.linalg.norm(after, axis=1) <= reach))
+        out = np.linalg.norm(before, axis=1) <= reach
+        if after:
+            out |= np.linalg.norm(before + self.reader.read(rel, d.outcomes, rows), axis=1) <= reach
+        return out
 
     def nonzero(self, y: np.ndarray) -> np.ndarray:
         return np.linalg.norm(y, axis=1) > self.config.zero_eps

@@ -82,6 +82,11 @@ class Dataset:
     def outcomes(self) -> np.ndarray:
         return self._outcomes[: self._n]
 
+    def episode_start(self, i: int) -> int:
+        """First iteration of the environment episode holding iteration `i`."""
+        k = int(np.searchsorted(self._episode_starts, i, side="right")) - 1
+        return self._episode_starts[k] if k >= 0 else 0
+
     def episodes(self) -> list[EpisodeSlice]:
         stops = [*self._episode_starts[1:], self._n]
         return [EpisodeSlice(i, a, b) for i, (a, b) in enumerate(zip(self._episode_starts, stops,
