@@ -172,9 +172,19 @@ class Planner:
                 continue
             plan = self._context_goal(space, np.zeros(2), np.zeros(self.reader.layout.size),
                                       probe)
-            out[i] = plan is not None and plan[0] != aff.output and any(
-                a.id != aff.id for a in self.h.controllers(plan[0]))
+            out[i] = plan is not None and bool(self._drivers(aff, plan[0], plan[2], probe))
         return out
+
+    def _drivers(self, aff: Affordance, driven: RoleSpace, sub_b: Binding,
+                 b: Binding) -> list[Affordance]:
+        """Affordances other than `aff` that can drive `driven` under binding `sub_b` (most
+        competent first), to set up a context of `aff` bound by `b`. None when that is `aff`'s
+        own output under its own binding: moving it is what `aff` is for, not a precondition
+        (the tool's position is a target position too, but under another binding)."""
+        if driven == aff.output and sub_b == b:
+            return []
+        return [a for a in self.h.controllers(driven)
+                if a.id != aff.id and (sub_b.tool >= 0 or not a.has_tool)]
 
     def needed_context(self, aff: Affordance, delta: np.ndarray, c: np.ndarray,
                        relations: np.ndarray) -> np.ndarray:
@@ -266,13 +276,11 @@ class Planner:
             if plan is None:
                 continue
             driven, goal, sub_b = plan
-            if driven == aff.output:
-                continue  # moving its own output is what `aff` is for, not a precondition
+            controllers = self._drivers(aff, driven, sub_b, b)
+            if not controllers:
+                continue
             current = self.value(driven, actuator.obs, sub_b)
             if np.linalg.norm(goal - current) < 0.25 * self.step_size(aff) + 0.02:
-                continue
-            controllers = [a for a in self.h.controllers(driven) if a.id != aff.id]
-            if not controllers:
                 continue
             sub = controllers[0]
             target_entity = sub_b.target if driven.role is not Role.ROBOT else -1

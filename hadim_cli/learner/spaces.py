@@ -157,8 +157,17 @@ class SpaceReader:
         return rows.target if role is Role.TARGET else rows.tool
 
     def _gather(self, arr: np.ndarray, role: Role, prop: Property, rows: Rows) -> np.ndarray:
+        entity = self._entity_of(role, rows)
+        # Offsets follow the entity actually bound, not the role: the robot laid in the target
+        # role (a negative example of p_A) has its properties elsewhere than an object.
         offset, dim = self._offsets[(role is Role.ROBOT, prop)]
-        cols = self._entity_start[self._entity_of(role, rows)] + offset
+        if role is not Role.ROBOT and (entity == 0).any():
+            robot_offset, robot_dim = self._offsets[(True, prop)]
+            if robot_dim != dim:
+                raise ValueError(f"the robot's {prop.value} has {robot_dim} values, "
+                                 f"an object's {dim}")
+            offset = np.where(entity == 0, robot_offset, offset)
+        cols = self._entity_start[entity] + offset
         return arr[rows.t[:, None], cols[:, None] + np.arange(dim)]
 
     def read(self, space: RoleSpace, arr: np.ndarray, rows: Rows,

@@ -67,3 +67,27 @@ def test_dataset_records_outcomes_and_episodes():
     d2.extend(d.actions[:300], d.contexts[:300], d.outcomes[:300])
     d2.extend(d.actions[300:], d.contexts[300:], d.outcomes[300:])
     assert d2.sha256() == digest
+
+
+def test_p_a_features_of_the_robot_are_its_own():
+    """p_A is trained with the robot as a negative target: reading the robot in the target
+    role must give the robot's visual properties (they lie elsewhere than an object's), the
+    same features p_A is asked about at selection time."""
+    from hadim_cli.config import load_config
+    from hadim_cli.learner.affordance import Fitter
+
+    layout = _layout(3)
+    reader = SpaceReader(layout)
+    obs = np.random.default_rng(0).uniform(0.1, 1.0, size=(2, layout.size))
+    d = Dataset(layout.size)
+    d.append(np.zeros(2), obs[0], obs[1])
+    fitter = Fitter(d, reader, load_config().learner)
+    entities = np.arange(len(layout.entities))
+    rows = Rows(np.zeros(entities.size, dtype=np.int64), entities,
+                np.full(entities.size, -1))
+    trained = fitter.target_features(rows)
+    asked = np.stack([reader.visual_features(obs[0], int(e)) for e in entities])
+    np.testing.assert_array_equal(trained, asked)
+    radius = RoleSpace(Role.TARGET, Property.RADIUS)
+    assert reader.read(radius, d.contexts, rows)[0, 0] == obs[0][layout.space("robot",
+                                                                          Property.RADIUS).start]
