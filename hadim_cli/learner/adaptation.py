@@ -50,6 +50,16 @@ class CreationBackoff:
         self.next_try[key] = episode + wait
 
 
+def required_gain(n_before: int, n_after: int, context_gain: float) -> float:
+    """Competence a context change must add: `context_gain` to add a context, half of it to
+    replace one (no more complex, but a change must beat the noise of the estimates), none to
+    remove one (as good and simpler). An affordance created early on scarce data with a weak
+    context can so take the right one once the data show it."""
+    if n_after > n_before:
+        return context_gain
+    return 0.5 * context_gain if n_after == n_before else 0.0
+
+
 class Adaptation:
     """Runs Algorithm 2 over H after each learning episode."""
 
@@ -149,15 +159,16 @@ class Adaptation:
             return f.trial(aff.input, aff.output, contexts, rows, np.random.default_rng(seed))
 
         baseline = score(aff.contexts)
-        best: tuple[float, EventKind, tuple[RoleSpace, ...], dict[str, str]] | None = None
+        best: tuple[float, float, EventKind, tuple[RoleSpace, ...], dict[str, str]] | None = None
         for kind, contexts, detail in self._context_options(aff):
             value = score(contexts)
-            if best is None or value > best[0]:
-                best = (value, kind, contexts, detail)
+            margin = value - required_gain(len(aff.contexts), len(contexts), cfg.context_gain)
+            if best is None or margin > best[0]:
+                best = (margin, value, kind, contexts, detail)
         if best is None:
             return
-        value, kind, contexts, detail = best
-        if value < cfg.tau_modification or value < baseline + cfg.context_gain:
+        margin, value, kind, contexts, detail = best
+        if value < cfg.tau_modification or margin < baseline:
             return
         aff.contexts = tuple(contexts)
         aff.model = f.fit(aff.input, aff.output, aff.contexts, aff.rows)

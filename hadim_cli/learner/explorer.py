@@ -103,16 +103,18 @@ class Learner:
 
     def salient_goal(self, aff: Affordance, binding: Binding, obs: np.ndarray,
                      rng: np.random.Generator) -> np.ndarray | None:
-        """The position of another object `aff`'s p_A accepts (where pushing an object meets
-        another), for a share `salient_goals` of random goals in an object's position space."""
+        """The position of the object nearest the target among those `aff`'s p_A accepts
+        (where pushing the target meets another object, within reach of one attempt), for a
+        share `salient_goals` of random goals in an object's position space."""
         space = aff.output
         if (space.role is not Role.TARGET or space.prop is not Property.POSITION
                 or binding.target < 0 or rng.random() >= self.config.salient_goals):
             return None
-        others = [int(e) for e in self.accepted_objects(aff, obs) if int(e) != binding.target]
-        if not others:
+        other = self.closest(self.accepted_objects(aff, obs), obs, exclude=binding.target,
+                             to=binding.target)
+        if other < 0:
             return None
-        return self.reader.entity_position(obs, others[int(rng.integers(len(others)))]).copy()
+        return self.reader.entity_position(obs, other).copy()
 
     # ------------------------------------------------------------------ Algorithm 1
     def learning_episode(self, actuator: Actuator, rng: np.random.Generator) -> LearningEpisode:

@@ -29,6 +29,7 @@ STEP_QUANTILE = 0.9
 CONTEXT_SUPPORT = 0.1
 """Contexts further apart than this (in spreads of the context space) are not the same."""
 APPROACH_MARGIN = 0.06
+MAX_DETOURS = 3
 SUPPORT_NEIGHBOURS = 3
 """Forward neighbours looked at to decide whether a context is supported by data."""
 SUBGOAL_TOLERANCE = 0.15
@@ -190,7 +191,7 @@ class Planner:
                        relations: np.ndarray) -> np.ndarray:
         """The context from which `aff` usually produces outcomes like `delta`.
 
-        Among the rows whose outcome is nearest `delta` and whose fixed contexts (those not in
+        Among the non-null rows whose outcome is nearest `delta` and whose fixed contexts (not in
         `relations`: e.g. the object's radius) are nearest the current ones, the relation
         values where most of them agree (a kernel density mode): one push seen from an odd
         place (a bounce, a chain of contacts) must not send the robot there. The result is `c`
@@ -200,9 +201,14 @@ class Planner:
         _, ctx, y = aff.model.data()
         scale = aff.model.scales().per_column()
         ctx_scale, y_scale = scale[x_cols:x_cols + ctx.shape[1]], scale[x_cols + ctx.shape[1]:]
+        effect = np.linalg.norm(y, axis=1) > self.config.zero_eps
+        if effect.any():  # a row where nothing moved shows no place an effect comes from
+            ctx, y = ctx[effect], y[effect]
         free = np.repeat(relations, aff.model.context_dims)
         query = np.concatenate([(y - delta) / y_scale, ((ctx - c) / ctx_scale)[:, ~free]], 1)
-        k = min(2 * self.config.k_inverse, y.shape[0])
+        # Few rows (a new affordance): a neighbourhood of all of them would vote for the
+        # largest cluster whatever its outcome.
+        k = min(2 * self.config.k_inverse, max(3, y.shape[0] // 4), y.shape[0])
         dist2 = np.einsum("ij,ij->i", query, query)
         near = np.sort(np.argpartition(dist2, k - 1)[:k])  # sorted: a deterministic order
         # Each row counts by how close its outcome is to `delta` (a Gaussian whose width is the
@@ -309,32 +315,50 @@ class Planner:
 
     def _waypoints(self, driven: RoleSpace, goal: np.ndarray, obs: np.ndarray, b: Binding,
                    mover: int) -> list[np.ndarray]:
-        """Go round the object we are about to push instead of through it."""
+        """Go round the objects in the way (the object about to be pushed first of all, and
+        any other: in `push-with-tool` touching the target directly fails) instead of
+        through them; at most `MAX_DETOURS` detours."""
         if driven.prop is not Property.POSITION or b.target < 0:
             return [goal]
         mover_entity = 0 if driven.role is Role.ROBOT else mover
         if mover_entity < 0:
             return [goal]
+        obstacles = [e for e in range(1, len(self.reader.layout.entities)) if e != mover_entity]
+        mover_radius = self.reader.entity_radius(obs, mover_entity)
+        points: list[np.ndarray] = []
         start = self.reader.entity_position(obs, mover_entity)
-        obstacle = b.target if mover_entity != b.target else b.tool
-        if obstacle < 0:
-            return [goal]
-        centre = self.reader.entity_position(obs, obstacle)
-        clearance = (self.reader.entity_radius(obs, obstacle)
-                     + self.reader.entity_radius(obs, mover_entity) + APPROACH_MARGIN)
+        for _ in range(MAX_DETOURS):
+            hit = self._first_obstacle(start, goal, obs, obstacles, mover_radius)
+            if hit is None:
+                break
+            centre, clearance = hit
+            a0 = np.arctan2(*(start - centre)[::-1])
+            a1 = np.arctan2(*(goal - centre)[::-1])
+            turn = (a1 - a0 + np.pi) % (2 * np.pi) - np.pi
+            radius = clearance + 0.05
+            for frac in (1 / 3, 2 / 3):
+                ang = a0 + frac * turn
+                points.append(centre + radius * np.array([np.cos(ang), np.sin(ang)]))
+            start = points[-1]
+        return [*points, goal]
+
+    def _first_obstacle(self, start: np.ndarray, goal: np.ndarray, obs: np.ndarray,
+                        obstacles: list[int], mover_radius: float
+                        ) -> tuple[np.ndarray, float] | None:
+        """(centre, clearance) of the first obstacle the segment start → goal passes too close
+        to, if any. An obstacle met only at the very end (the goal is next to the object to
+        push) is not in the way."""
         seg = goal - start
         length2 = float(seg @ seg)
         if length2 < 1e-12:
-            return [goal]
-        s = float(np.clip((centre - start) @ seg / length2, 0.0, 1.0))
-        if s >= 0.95 or np.linalg.norm(start + s * seg - centre) >= clearance:
-            return [goal]
-        a0 = np.arctan2(*(start - centre)[::-1])
-        a1 = np.arctan2(*(goal - centre)[::-1])
-        turn = (a1 - a0 + np.pi) % (2 * np.pi) - np.pi
-        radius = clearance + 0.05
-        points = []
-        for frac in (1 / 3, 2 / 3):
-            ang = a0 + frac * turn
-            points.append(centre + radius * np.array([np.cos(ang), np.sin(ang)]))
-        return [*points, goal]
+            return None
+        first: tuple[float, np.ndarray, float] | None = None
+        for e in obstacles:
+            centre = self.reader.entity_position(obs, e)
+            clearance = self.reader.entity_radius(obs, e) + mover_radius + APPROACH_MARGIN
+            s = float(np.clip((centre - start) @ seg / length2, 0.0, 1.0))
+            if s >= 0.95 or np.linalg.norm(start + s * seg - centre) >= clearance:
+                continue
+            if first is None or s < first[0]:
+                first = (s, centre, clearance)
+        return None if first is None else (first[1], first[2])
