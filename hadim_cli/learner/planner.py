@@ -19,17 +19,21 @@ from typing import Protocol
 import numpy as np
 
 from hadim_cli.config import LearnerConfig
-from hadim_cli.learner.affordance import Affordance, typical_step
+from hadim_cli.learner.affordance import CONTACT_MARGIN, Affordance, typical_step
 from hadim_cli.learner.hierarchy import Hierarchy
 from hadim_cli.learner.spaces import ACTION, Property, Role, RoleSpace, SpaceReader
 
 MAX_DEPTH = 4
 STEP_QUANTILE = 0.9
 """Sub-goals are cut to this quantile of an affordance's non-null outcome norms."""
+ROBOT_POSITION = RoleSpace(Role.ROBOT, Property.POSITION)
 CONTEXT_SUPPORT = 0.1
 """Contexts further apart than this (in spreads of the context space) are not the same."""
 APPROACH_MARGIN = 0.06
 MAX_DETOURS = 3
+REALIGN = 0.2
+"""Re-place (reach the needed relation) when the current one has drifted further than this
+many spreads from it, even if the step still looks supported: a pushed object slides off."""
 SUPPORT_NEIGHBOURS = 3
 """Forward neighbours looked at to decide whether a context is supported by data."""
 SUBGOAL_TOLERANCE = 0.15
@@ -54,6 +58,9 @@ class Binding:
 
     target: int = -1
     tool: int = -1
+    avoid: int = -1
+    """An entity the robot must not touch: the target while a tool moves it (a tool
+    affordance's data are the target's moves *without* the robot touching it)."""
 
 
 @dataclass(frozen=True)
@@ -145,12 +152,12 @@ class Planner:
             # relation (e.g. target-robot) is far from that of the data it comes from, first
             # reach the relation from which outcomes like `delta` are usually obtained.
             unsupported = self.support_gap(aff, here.x, c, relations) > CONTEXT_SUPPORT
-            if unsupported or progress < 0.3:
-                needed = self.needed_context(aff, delta, c, relations)
-                if self.context_gap(aff, c, needed, relations) > CONTEXT_SUPPORT:
-                    used = self._reach_context(aff, b, needed, actuator, budget, depth)
-                    if used > 0:
-                        return used
+            needed = self.needed_context(aff, delta, c, relations)
+            off = self.context_gap(aff, c, needed, relations)
+            if off > CONTEXT_SUPPORT and (unsupported or progress < 0.3 or off > REALIGN):
+                used = self._reach_context(aff, b, needed, actuator, budget, depth)
+                if used > 0:
+                    return used
         elif progress < 0.3 and aff.contexts and depth < MAX_DEPTH:
             # A pose context (e.g. the heading for a move): reach that of the best answer.
             anywhere = aff.model.infer(delta)
@@ -255,7 +262,10 @@ class Planner:
                 budget: int, depth: int, exclude: int = -1) -> int:
         """Produce the change `x` of the controllable `space`; returns actions used."""
         if space is ACTION:
-            actuator.act(np.clip(x, -1.0, 1.0))
+            action = np.clip(x, -1.0, 1.0)
+            if self.foresees_contact(b, action, actuator.obs):
+                return -1
+            actuator.act(action)
             return 1
         if depth >= MAX_DEPTH or budget <= 0:
             return -1
@@ -263,10 +273,27 @@ class Planner:
         if not controllers:
             return -1
         sub = controllers[0]
-        sub_b = Binding(target=b.tool) if space.role is Role.TOOL else b
+        sub_b = Binding(target=b.tool, avoid=b.target) if space.role is Role.TOOL else b
         goal = self.value(space, actuator.obs, b) + x
         sub_budget = min(budget, self.config.subgoal_budget)
         return self.reach(sub, sub_b, goal, actuator, sub_budget, depth + 1).actions
+
+    def foresees_contact(self, b: Binding, action: np.ndarray, obs: np.ndarray) -> bool:
+        """Whether the robot's own motion model predicts that `action` brings the robot into
+        contact with the entity `b` says to avoid (half-way or at the end of the action)."""
+        if b.avoid < 0:
+            return False
+        movers = [a for a in self.h.controllers(ROBOT_POSITION) if a.input is ACTION]
+        if not movers:
+            return False
+        mover = movers[0]
+        c = self.context(mover, obs, b)
+        shift = mover.model.predict(action[None], c[None] if c.size else None)[0]
+        robot = self.reader.entity_position(obs, 0)
+        other = self.reader.entity_position(obs, b.avoid)
+        reach = (self.reader.entity_radius(obs, 0) + self.reader.entity_radius(obs, b.avoid)
+                 + CONTACT_MARGIN)
+        return any(np.linalg.norm(robot + f * shift - other) <= reach for f in (0.5, 1.0))
 
     # ------------------------------------------------------------------ reaching contexts
     def _reach_context(self, aff: Affordance, b: Binding, needed: np.ndarray,
@@ -309,7 +336,7 @@ class Planner:
             return robot_pos, anchor - want, b
         if space.role is Role.TARGET and space.relative_to is Role.TOOL:
             anchor = self.value(RoleSpace(Role.TARGET, Property.POSITION), obs, b)
-            tool_as_target = Binding(target=b.tool)
+            tool_as_target = Binding(target=b.tool, avoid=b.target)
             return RoleSpace(Role.TARGET, Property.POSITION), anchor - want, tool_as_target
         return None
 
