@@ -238,7 +238,8 @@ class Planner:
         model's own row is no test: its (outcome, context) search is led by the outcome."""
         _, nb = aff.model.forward_neighbours(x, c, k=SUPPORT_NEIGHBOURS)
         _, ctx, _ = aff.model.data()
-        return min(self.context_gap(aff, c, ctx[i], relations) for i in nb[0])
+        spreads = self._spreads(aff)
+        return min(self._gap(aff, spreads, c, ctx[i], relations) for i in nb[0])
 
     def context_gap(self, aff: Affordance, c: np.ndarray, other: np.ndarray,
                     spaces: np.ndarray | None = None) -> float:
@@ -246,16 +247,29 @@ class Planner:
         `spaces`, all by default), in units of its spread."""
         if not aff.contexts or c.size == 0:
             return 0.0
+        return self._gap(aff, self._spreads(aff), c, other, spaces)
+
+    @staticmethod
+    def _spreads(aff: Affordance) -> list[float]:
+        """Per context space of `aff`: the norm of its per-column standard deviations."""
         _, data, _ = aff.model.data()
         spread = data.std(axis=0)
+        out, offset = [], 0
+        for dim in aff.model.context_dims:
+            out.append(max(float(np.linalg.norm(spread[offset:offset + dim])), 1e-6))
+            offset += dim
+        return out
+
+    @staticmethod
+    def _gap(aff: Affordance, spreads: list[float], c: np.ndarray, other: np.ndarray,
+             spaces: np.ndarray | None = None) -> float:
         gap, offset = 0.0, 0
         for i, dim in enumerate(aff.model.context_dims):
             sl = slice(offset, offset + dim)
             offset += dim
             if spaces is not None and not spaces[i]:
                 continue
-            scale = max(float(np.linalg.norm(spread[sl])), 1e-6)
-            gap = max(gap, float(np.linalg.norm(c[sl] - other[sl])) / scale)
+            gap = max(gap, float(np.linalg.norm(c[sl] - other[sl])) / spreads[i])
         return gap
 
     def execute(self, space: RoleSpace, x: np.ndarray, b: Binding, actuator: Actuator,
