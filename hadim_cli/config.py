@@ -180,8 +180,9 @@ class LearnerConfig:
     zero_ratio: float = 1.0
     """Null-outcome rows kept per non-null row in an affordance's data."""
     salient_goals: float = 0.5
-    """Share of random goals in an object's position space set at another pushable object's
-    position (objects meet there: where pushing one object with another can be found)."""
+    """Share of random goals in an object's position space set at the position of the
+    pushable object nearest the target (objects meet there, within one attempt's reach: where
+    pushing one object with another can be found)."""
     goal_budget: int = 25
     """Primitive actions one goal attempt may use."""
     subgoal_budget: int = 6
