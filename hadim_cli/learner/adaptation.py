@@ -70,13 +70,7 @@ class Adaptation:
         self.backoff = CreationBackoff()
 
     def non_null_spaces(self, t: np.ndarray) -> list[RoleSpace]:
-        out = []
-        for space in OUTPUT_SPACES:
-            rows = self.fitter.bindings(space.roles, t)
-            y = self.fitter.reader.read(space, self.fitter.dataset.outcomes, rows)
-            if self.fitter.nonzero(y).any():
-                out.append(space)
-        return out
+        return [space for space in OUTPUT_SPACES if self.fitter.changed(space, t)[1].any()]
 
     def run(self, t0: int, t1: int, iteration: int, episode: int,
             rng: np.random.Generator) -> list[Event]:
@@ -229,9 +223,8 @@ class Adaptation:
             return negative
         t_end = int(sample.rows.t.max()) + 1
         t = np.arange(f.dataset.episode_start(int(sample.rows.t.min())), t_end, dtype=np.int64)
-        episode = f.values(aff.input, aff.output, (),
-                           f.bindings(aff.output.roles | aff.input.roles, t))
-        responded = np.unique(episode.rows.target[f.nonzero(episode.y)])
+        rows, changed = f.changed(aff.output, t)
+        responded = np.unique(rows.target[changed])
         negative[idx[~np.isin(sample.rows.target[idx], responded)]] = True
         return negative
 

@@ -151,6 +151,11 @@ class Fitter:
             out |= np.linalg.norm(before + self.reader.read(rel, d.outcomes, rows), axis=1) <= reach
         return out
 
+    def changed(self, space: RoleSpace, t: np.ndarray) -> tuple[Rows, np.ndarray]:
+        """Every binding of `space`'s roles at iterations `t`, and whether `space` changed."""
+        rows = self.bindings(space.roles, t)
+        return rows, self.nonzero(self.reader.read(space, self.dataset.outcomes, rows))
+
     def nonzero(self, y: np.ndarray) -> np.ndarray:
         return np.linalg.norm(y, axis=1) > self.config.zero_eps
 

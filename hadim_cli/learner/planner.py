@@ -151,9 +151,10 @@ class Planner:
             # The inverse answer is only trusted where such outcomes were seen: if the current
             # relation (e.g. target-robot) is far from that of the data it comes from, first
             # reach the relation from which outcomes like `delta` are usually obtained.
-            unsupported = self.support_gap(aff, here.x, c, relations) > CONTEXT_SUPPORT
+            spreads = self._spreads(aff)
+            unsupported = self.support_gap(aff, here.x, c, relations, spreads) > CONTEXT_SUPPORT
             needed = self.needed_context(aff, delta, c, relations)
-            off = self.context_gap(aff, c, needed, relations)
+            off = self._gap(aff, spreads, c, needed, relations)
             if off > CONTEXT_SUPPORT and (unsupported or progress < 0.3 or off > REALIGN):
                 used = self._reach_context(aff, b, needed, actuator, budget, depth)
                 if used > 0:
@@ -232,22 +233,15 @@ class Planner:
         return needed
 
     def support_gap(self, aff: Affordance, x: np.ndarray, c: np.ndarray,
-                    relations: np.ndarray) -> float:
+                    relations: np.ndarray, spreads: list[float] | None = None) -> float:
         """How far the data behind the forward prediction of `x` in context `c` are from `c`:
-        the smallest relation gap (`context_gap`) of its nearest stored rows. The inverse
-        model's own row is no test: its (outcome, context) search is led by the outcome."""
+        the smallest relation gap (`_gap`) of its nearest stored rows. The inverse
+        model's own row is no test: its (outcome, context) search is led by the outcome.
+        `spreads`: `_spreads(aff)`, when the caller has them already."""
         _, nb = aff.model.forward_neighbours(x, c, k=SUPPORT_NEIGHBOURS)
         _, ctx, _ = aff.model.data()
-        spreads = self._spreads(aff)
+        spreads = self._spreads(aff) if spreads is None else spreads
         return min(self._gap(aff, spreads, c, ctx[i], relations) for i in nb[0])
-
-    def context_gap(self, aff: Affordance, c: np.ndarray, other: np.ndarray,
-                    spaces: np.ndarray | None = None) -> float:
-        """Largest distance between two contexts, per context space (of those in the mask
-        `spaces`, all by default), in units of its spread."""
-        if not aff.contexts or c.size == 0:
-            return 0.0
-        return self._gap(aff, self._spreads(aff), c, other, spaces)
 
     @staticmethod
     def _spreads(aff: Affordance) -> list[float]:
@@ -263,6 +257,8 @@ class Planner:
     @staticmethod
     def _gap(aff: Affordance, spreads: list[float], c: np.ndarray, other: np.ndarray,
              spaces: np.ndarray | None = None) -> float:
+        """Largest distance between two contexts, per context space (of those in the mask
+        `spaces`, all by default), in units of its spread (`_spreads`)."""
         gap, offset = 0.0, 0
         for i, dim in enumerate(aff.model.context_dims):
             sl = slice(offset, offset + dim)
