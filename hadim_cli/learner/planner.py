@@ -28,14 +28,19 @@ STEP_QUANTILE = 0.9
 """Sub-goals are cut to this quantile of an affordance's non-null outcome norms."""
 ROBOT_POSITION = RoleSpace(Role.ROBOT, Property.POSITION)
 CONTEXT_SUPPORT = 0.1
-"""Contexts further apart than this (in spreads of the context space) are not the same."""
+"""Relations further apart than this (in their model's scale) vote apart in `needed_context`."""
+PLACE_SUPPORT = 0.3
+"""A relation further than this from the needed one (in spreads of that relation over the rows
+with an effect, `_spreads`: about 0.1 m for a push) is not the same place."""
 APPROACH_MARGIN = 0.06
 MAX_DETOURS = 3
-REALIGN = 0.2
+REALIGN = 0.6
 """Re-place (reach the needed relation) when the current one has drifted further than this
 many spreads from it, even if the step still looks supported: a pushed object slides off."""
 SUPPORT_NEIGHBOURS = 3
 """Forward neighbours looked at to decide whether a context is supported by data."""
+POSE_MATCH = 0.3
+"""Rows whose outcome is within this fraction of a step's length count as producing it."""
 SUBGOAL_TOLERANCE = 0.15
 """A sub-goal counts as reached within this fraction of its affordance's typical step."""
 
@@ -152,22 +157,38 @@ class Planner:
             # relation (e.g. target-robot) is far from that of the data it comes from, first
             # reach the relation from which outcomes like `delta` are usually obtained.
             spreads = self._spreads(aff)
-            unsupported = self.support_gap(aff, here.x, c, relations, spreads) > CONTEXT_SUPPORT
+            unsupported = self.support_gap(aff, here.x, c, relations, spreads) > PLACE_SUPPORT
             needed = self.needed_context(aff, delta, c, relations)
             off = self._gap(aff, spreads, c, needed, relations)
-            if off > CONTEXT_SUPPORT and (unsupported or progress < 0.3 or off > REALIGN):
+            if off > PLACE_SUPPORT and (unsupported or progress < 0.3 or off > REALIGN):
                 used = self._reach_context(aff, b, needed, actuator, budget, depth)
                 if used > 0:
                     return used
         elif progress < 0.3 and aff.contexts and depth < MAX_DEPTH:
             # A pose context (e.g. the heading for a move): reach that of the best answer.
-            anywhere = aff.model.infer(delta)
-            used = self._reach_context(aff, b, anywhere.context, actuator, budget, depth)
+            used = self._reach_context(aff, b, self.nearest_pose(aff, delta, c), actuator,
+                                       budget, depth)
             if used > 0:
                 return used
         if progress <= 0.0:
             return -1
         return self.execute(aff.input, here.x, b, actuator, budget, depth, exclude=aff.id)
+
+    def nearest_pose(self, aff: Affordance, delta: np.ndarray, c: np.ndarray) -> np.ndarray:
+        """The context nearest `c` among those of the stored rows whose outcome was like
+        `delta` (within `POSE_MATCH` of its length): a robot can often drive backwards as well
+        as forwards, and the smaller turn is the cheaper one. Falls back to the context of the
+        inverse model's best answer anywhere."""
+        _, nb = aff.model.inverse_neighbours(delta[None], k=self.config.k_inverse)
+        _, ctx, y = aff.model.data()
+        rows = nb[0]
+        err = np.linalg.norm(y[rows] - delta, axis=1) / max(float(np.linalg.norm(delta)), 1e-9)
+        good = rows[err <= POSE_MATCH]
+        if good.size == 0:
+            return aff.model.infer(delta).context
+        scale = aff.model.scales().per_column()[aff.model.dx:aff.model.dx + ctx.shape[1]]
+        travel = np.linalg.norm((ctx[good] - c) / scale, axis=1)
+        return ctx[good[int(np.argmin(travel))]].copy()
 
     def reachable_relations(self, aff: Affordance) -> np.ndarray:
         """Per context space of `aff`: whether it is a relative position (e.g. target-robot)
@@ -243,10 +264,15 @@ class Planner:
         spreads = self._spreads(aff) if spreads is None else spreads
         return min(self._gap(aff, spreads, c, ctx[i], relations) for i in nb[0])
 
-    @staticmethod
-    def _spreads(aff: Affordance) -> list[float]:
-        """Per context space of `aff`: the norm of its per-column standard deviations."""
-        _, data, _ = aff.model.data()
+    def _spreads(self, aff: Affordance) -> list[float]:
+        """Per context space of `aff`: the norm of its per-column standard deviations over the
+        rows with an effect (the places it acts from: near contact for a push), or all rows
+        when fewer than two have one. Over all rows, a push's relation spreads over the whole
+        room, and a robot 0.14 m off the side of an object counted as behind it."""
+        _, data, y = aff.model.data()
+        effect = np.linalg.norm(y, axis=1) > self.config.zero_eps
+        if effect.sum() >= 2:
+            data = data[effect]
         spread = data.std(axis=0)
         out, offset = [], 0
         for dim in aff.model.context_dims:

@@ -78,3 +78,49 @@ def test_the_planner_refuses_an_action_that_would_touch_what_it_must_avoid():
     assert planner.foresees_contact(Binding(target=2, avoid=1), towards, obs)
     assert not planner.foresees_contact(Binding(target=2, avoid=1), away, obs)
     assert not planner.foresees_contact(Binding(target=1), towards, obs)  # nothing to avoid
+
+
+def _drive_like_model(rng: np.random.Generator) -> LocalLinearModel:
+    """A differential drive: action (left, right) moves the robot along ±its heading, so one
+    displacement is reached driving forwards with one heading or backwards with the opposite."""
+    model = LocalLinearModel(2, 2, [2])
+    angles = rng.uniform(-np.pi, np.pi, 400)
+    heading = np.stack([np.cos(angles), np.sin(angles)], axis=1)
+    action = rng.uniform(-1.0, 1.0, (400, 2))
+    forward = 0.05 * (action[:, 0] + action[:, 1])  # turning part left out: not needed here
+    model.add(action, heading, heading * forward[:, None])
+    return model
+
+
+def test_the_pose_to_take_is_the_nearest_one_that_produces_the_move():
+    """To move 0.08 m along +x the robot can face +x and drive forwards or face -x and drive
+    backwards. Facing almost -x already, it keeps that pose instead of turning round."""
+    rng = np.random.default_rng(1)
+    config = load_config().learner
+    planner = Planner(Hierarchy(), reader=None, config=config)
+    aff = SimpleNamespace(model=_drive_like_model(rng))
+    delta = np.array([0.08, 0.0])
+    facing_back = np.array([np.cos(3.0), np.sin(3.0)])
+    pose = planner.nearest_pose(aff, delta, facing_back)
+    assert pose @ facing_back > 0.9
+    facing_ahead = np.array([np.cos(0.2), np.sin(0.2)])
+    pose = planner.nearest_pose(aff, delta, facing_ahead)
+    assert pose @ facing_ahead > 0.9
+
+
+def test_a_relation_is_measured_against_where_the_affordance_acts():
+    """Spreads of a push's relation come from the rows with an effect (the robot near the
+    object), not from all rows (the robot anywhere in the room): 0.14 m off the side of an
+    object is not 'behind' it."""
+    rng = np.random.default_rng(2)
+    config = load_config().learner
+    planner = Planner(Hierarchy(), reader=None, config=config)
+    model = _push_like_model(rng, outliers=0)
+    far = rng.uniform(-1.5, 1.5, (600, 2))  # rows where nothing moved: the robot far away
+    model.add(np.zeros((600, 2)), np.concatenate([np.full((600, 1), 0.12), far], axis=1),
+              np.zeros((600, 2)))
+    aff = SimpleNamespace(model=model)
+    spread = planner._spreads(aff)[1]
+    assert spread < 0.35  # contact distances 0.23-0.4 in every direction: about 0.27
+    all_rows = np.linalg.norm(model.data()[1][:, 1:].std(axis=0))
+    assert all_rows > 1.0
