@@ -182,7 +182,10 @@ class LearnerConfig:
     salient_goals: float = 0.5
     """Share of random goals in an object's position space set at the position of the
     pushable object nearest the target (objects meet there, within one attempt's reach: where
-    pushing one object with another can be found)."""
+    pushing one object with another can be found), pushed on by `salient_beyond`."""
+    salient_beyond: float = 0.3
+    """How far (m) beyond the other object, along the line from the target, a salient goal
+    lies: the target has to push that object out of its way instead of stopping at it."""
     goal_budget: int = 25
     """Primitive actions one goal attempt may use."""
     subgoal_budget: int = 6
@@ -219,6 +222,8 @@ class LearnerConfig:
                self.competence_rows)
         _check(self.creation_rows >= 20, "learner.creation_rows", "must be >= 20",
                self.creation_rows)
+        _check(self.salient_beyond >= 0, "learner.salient_beyond", "must be >= 0",
+               self.salient_beyond)
         for name in ("zero_eps", "competence_sharpness", "zero_ratio", "reach_tolerance"):
             value = getattr(self, name)
             _check(value > 0, f"learner.{name}", "must be > 0", value)

@@ -104,8 +104,10 @@ class Learner:
     def salient_goal(self, aff: Affordance, binding: Binding, obs: np.ndarray,
                      rng: np.random.Generator) -> np.ndarray | None:
         """The position of the object nearest the target among those `aff`'s p_A accepts
-        (where pushing the target meets another object, within reach of one attempt), for a
-        share `salient_goals` of random goals in an object's position space."""
+        (where pushing the target meets another object, within reach of one attempt), pushed
+        on by `salient_beyond` along the line from the target (so that the target has to push
+        that object on: a long push, with the target as a tool), for a share `salient_goals`
+        of random goals in an object's position space."""
         space = aff.output
         if (space.role is not Role.TARGET or space.prop is not Property.POSITION
                 or binding.target < 0 or rng.random() >= self.config.salient_goals):
@@ -114,7 +116,10 @@ class Learner:
                              to=binding.target)
         if other < 0:
             return None
-        return self.reader.entity_position(obs, other).copy()
+        there = self.reader.entity_position(obs, other)
+        line = there - self.reader.entity_position(obs, binding.target)
+        unit = line / max(float(np.linalg.norm(line)), 1e-9)
+        return there + self.config.salient_beyond * unit
 
     # ------------------------------------------------------------------ Algorithm 1
     def learning_episode(self, actuator: Actuator, rng: np.random.Generator) -> LearningEpisode:

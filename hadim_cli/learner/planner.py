@@ -41,6 +41,9 @@ SUPPORT_NEIGHBOURS = 3
 """Forward neighbours looked at to decide whether a context is supported by data."""
 POSE_MATCH = 0.3
 """Rows whose outcome is within this fraction of a step's length count as producing it."""
+SMALL_CORRECTION = 0.5
+"""A sub-goal's remaining step shorter than this fraction of a typical step is not worth
+re-placing for."""
 SUBGOAL_TOLERANCE = 0.15
 """A sub-goal counts as reached within this fraction of its affordance's typical step."""
 
@@ -161,6 +164,10 @@ class Planner:
             needed = self.needed_context(aff, delta, c, relations)
             off = self._gap(aff, spreads, c, needed, relations)
             if off > PLACE_SUPPORT and (unsupported or progress < 0.3 or off > REALIGN):
+                if depth > 0 and np.linalg.norm(delta) < SMALL_CORRECTION * self.step_size(aff):
+                    # A small remainder of a sub-goal is not worth a trip round the object
+                    # (the robot circled a tool for 3 cm): the parent replans from here.
+                    return -1
                 used = self._reach_context(aff, b, needed, actuator, budget, depth)
                 if used > 0:
                     return used
@@ -256,13 +263,23 @@ class Planner:
     def support_gap(self, aff: Affordance, x: np.ndarray, c: np.ndarray,
                     relations: np.ndarray, spreads: list[float] | None = None) -> float:
         """How far the data behind the forward prediction of `x` in context `c` are from `c`:
-        the smallest relation gap (`_gap`) of its nearest stored rows. The inverse
-        model's own row is no test: its (outcome, context) search is led by the outcome.
-        `spreads`: `_spreads(aff)`, when the caller has them already."""
-        _, nb = aff.model.forward_neighbours(x, c, k=SUPPORT_NEIGHBOURS)
-        _, ctx, _ = aff.model.data()
+        the smallest relation gap (`_gap`) of the nearest stored rows *with an effect* in
+        normalised (input, context). Rows where nothing moved support no effect: with them,
+        a robot 0.45 m from an object looked supported for a push, and its inverse answer (an
+        extrapolation) drove it past the object's side. The inverse model's own row is no
+        test: its (outcome, context) search is led by the outcome. `spreads`:
+        `_spreads(aff)`, when the caller has them already."""
+        xs, ctx, y = aff.model.data()
+        effect = np.flatnonzero(np.linalg.norm(y, axis=1) > self.config.zero_eps)
+        if effect.size < SUPPORT_NEIGHBOURS:
+            return np.inf
+        scale = aff.model.scales().per_column()[:xs.shape[1] + ctx.shape[1]]
+        z = np.concatenate([xs[effect], ctx[effect]], axis=1) / scale
+        q = np.concatenate([x, c]) / scale
+        d2 = np.einsum("ij,ij->i", z - q, z - q)
+        nb = effect[np.argpartition(d2, SUPPORT_NEIGHBOURS - 1)[:SUPPORT_NEIGHBOURS]]
         spreads = self._spreads(aff) if spreads is None else spreads
-        return min(self._gap(aff, spreads, c, ctx[i], relations) for i in nb[0])
+        return min(self._gap(aff, spreads, c, ctx[i], relations) for i in nb)
 
     def _spreads(self, aff: Affordance) -> list[float]:
         """Per context space of `aff`: the norm of its per-column standard deviations over the

@@ -95,3 +95,30 @@ def test_evaluating_during_training_leaves_training_unchanged():
     quiet, evaluated = run(False), run(True)
     assert quiet[0] == evaluated[0]
     assert quiet[1] == evaluated[1]
+
+
+def test_a_salient_goal_lies_beyond_the_object_nearest_the_target():
+    """Half the random goals of an object's position: push it through the object nearest it,
+    `salient_beyond` past that object's centre along the line between them."""
+    from types import SimpleNamespace
+
+    from hadim_cli.learner.planner import Binding
+
+    session = Session(load_config(), seed=0)
+    learner = session.learner
+    obs = session.world.reset(np.random.default_rng(5))
+    reader = learner.reader
+    target = 1
+    others = [e for e in range(1, len(learner.layout.entities)) if e != target]
+    here = reader.entity_position(obs, target)
+    nearest = min(others, key=lambda e: np.linalg.norm(reader.entity_position(obs, e) - here))
+    there = reader.entity_position(obs, nearest)
+    push = SimpleNamespace(output=RoleSpace(Role.TARGET, Property.POSITION), classifier=None)
+    rng = np.random.default_rng(0)
+    goals = [learner.salient_goal(push, Binding(target=target), obs, rng) for _ in range(40)]
+    salient = [g for g in goals if g is not None]
+    assert 5 < len(salient) < 35  # a share `salient_goals` = 0.5 of the draws
+    beyond = learner.config.salient_beyond
+    for g in salient:
+        assert np.allclose(np.linalg.norm(g - there), beyond)
+        assert np.linalg.norm(g - here) > np.linalg.norm(there - here)  # past it, not before

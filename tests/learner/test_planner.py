@@ -124,3 +124,23 @@ def test_a_relation_is_measured_against_where_the_affordance_acts():
     assert spread < 0.35  # contact distances 0.23-0.4 in every direction: about 0.27
     all_rows = np.linalg.norm(model.data()[1][:, 1:].std(axis=0))
     assert all_rows > 1.0
+
+
+def test_rows_where_nothing_moved_do_not_support_a_push():
+    """A robot 0.45 m behind an object has stood there before without moving it: those rows
+    are near in (input, context) but show no push, so the step is unsupported and the robot
+    first gets to contact."""
+    rng = np.random.default_rng(3)
+    config = load_config().learner
+    planner = Planner(Hierarchy(), reader=None, config=config)
+    model = _push_like_model(rng, outliers=0)
+    n = 200
+    far = np.stack([rng.uniform(0.4, 0.5, n), rng.uniform(-0.05, 0.05, n)], axis=1)
+    model.add(rng.uniform(-0.1, 0.1, (n, 2)), np.concatenate([np.full((n, 1), 0.12), far], 1),
+              np.zeros((n, 2)))
+    aff = SimpleNamespace(model=model)
+    relations = np.array([False, True])
+    away = np.array([0.12, 0.45, 0.0])
+    assert planner.support_gap(aff, np.array([0.1, 0.0]), away, relations) > 0.5
+    at_contact = np.array([0.12, 0.27, 0.0])
+    assert planner.support_gap(aff, np.array([0.1, 0.0]), at_contact, relations) < 0.3
