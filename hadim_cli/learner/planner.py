@@ -29,6 +29,9 @@ STEP_QUANTILE = 0.9
 ROBOT_POSITION = RoleSpace(Role.ROBOT, Property.POSITION)
 CONTEXT_SUPPORT = 0.1
 """Relations further apart than this (in their model's scale) vote apart in `needed_context`."""
+AGREEMENT = 0.4
+"""Rows whose relation is within this (in their model's scale) of the densest one's agree with
+it, and the needed relation is fitted on them (`Planner._relation_at`)."""
 PLACE_SUPPORT = 0.3
 """A relation further than this from the needed one (in spreads of that relation over the rows
 with an effect, `_spreads`: about 0.1 m for a push) is not the same place."""
@@ -257,8 +260,25 @@ class Planner:
         travel = np.linalg.norm(rel - c[free] / ctx_scale[free], axis=1)
         best = int(np.argmax(closeness * agreement - 1e-3 * travel))
         needed = c.copy()
-        needed[free] = ctx[near[best]][free]
+        needed[free] = self._relation_at(delta, (y[near] - delta) / y_scale,
+                                         ctx[near][:, free],
+                                         closeness * (d2[best] <= AGREEMENT ** 2))
         return needed
+
+    @staticmethod
+    def _relation_at(delta: np.ndarray, dy: np.ndarray, rel: np.ndarray,
+                     w: np.ndarray) -> np.ndarray:
+        """The relation at outcome `delta`, from rows with normalised outcome offsets `dy`
+        (from `delta`), relations `rel` and weights `w`: the intercept of a weighted linear
+        fit rel ≈ a + B·dy (the neighbours' outcomes are never all `delta`, and their relations
+        differ with them: one row's relation was 10° off the push on average, the fit's 6°),
+        or their weighted mean when too few rows weigh."""
+        if int((w > 1e-6).sum()) < dy.shape[1] + 3:
+            return (w @ rel) / max(float(w.sum()), 1e-12)
+        sw = np.sqrt(w)[:, None]
+        design = np.concatenate([np.ones((dy.shape[0], 1)), dy], axis=1)
+        coef, *_ = np.linalg.lstsq(design * sw, rel * sw, rcond=None)
+        return coef[0]
 
     def support_gap(self, aff: Affordance, x: np.ndarray, c: np.ndarray,
                     relations: np.ndarray, spreads: list[float] | None = None) -> float:
