@@ -20,6 +20,7 @@ import numpy as np
 
 from hadim_cli.config import LearnerConfig
 from hadim_cli.learner.affordance import CONTACT_MARGIN, Affordance, typical_step
+from hadim_cli.learner.competence import split_zero
 from hadim_cli.learner.hierarchy import Hierarchy
 from hadim_cli.learner.spaces import ACTION, Property, Role, RoleSpace, SpaceReader
 
@@ -112,6 +113,11 @@ class Planner:
         if not aff.contexts:
             return np.zeros(0)
         return np.concatenate([self.value(c, obs, b) for c in aff.contexts])
+
+    def effect(self, y: np.ndarray) -> np.ndarray:
+        """Mask of the outcomes `y` where something moved (the shared `split_zero` rule): the
+        rows that show where an affordance acts from."""
+        return ~split_zero(y, self.config.zero_eps)
 
     def step_size(self, aff: Affordance) -> float:
         """The typical size of one step of `aff`: a high quantile of its non-null outcomes."""
@@ -240,7 +246,7 @@ class Planner:
         _, ctx, y = aff.model.data()
         scale = aff.model.scales().per_column()
         ctx_scale, y_scale = scale[x_cols:x_cols + ctx.shape[1]], scale[x_cols + ctx.shape[1]:]
-        effect = np.linalg.norm(y, axis=1) > self.config.zero_eps
+        effect = self.effect(y)
         if effect.any():  # a row where nothing moved shows no place an effect comes from
             ctx, y = ctx[effect], y[effect]
         free = np.repeat(relations, aff.model.context_dims)
@@ -260,19 +266,17 @@ class Planner:
         travel = np.linalg.norm(rel - c[free] / ctx_scale[free], axis=1)
         best = int(np.argmax(closeness * agreement - 1e-3 * travel))
         needed = c.copy()
-        needed[free] = self._relation_at(delta, (y[near] - delta) / y_scale,
-                                         ctx[near][:, free],
+        needed[free] = self._relation_at((y[near] - delta) / y_scale, ctx[near][:, free],
                                          closeness * (d2[best] <= AGREEMENT ** 2))
         return needed
 
     @staticmethod
-    def _relation_at(delta: np.ndarray, dy: np.ndarray, rel: np.ndarray,
-                     w: np.ndarray) -> np.ndarray:
-        """The relation at outcome `delta`, from rows with normalised outcome offsets `dy`
-        (from `delta`), relations `rel` and weights `w`: the intercept of a weighted linear
-        fit rel ≈ a + B·dy (the neighbours' outcomes are never all `delta`, and their relations
-        differ with them: one row's relation was 10° off the push on average, the fit's 6°),
-        or their weighted mean when too few rows weigh."""
+    def _relation_at(dy: np.ndarray, rel: np.ndarray, w: np.ndarray) -> np.ndarray:
+        """The relation at the wanted outcome, from rows with normalised outcome offsets `dy`
+        from it, relations `rel` and weights `w`: the intercept of a weighted linear
+        fit rel ≈ a + B·dy (the neighbours' outcomes are never exactly the wanted one, and their
+        relations differ with them: one row's relation was 10° off the push on average, the
+        fit's 6°), or their weighted mean when too few rows weigh."""
         if int((w > 1e-6).sum()) < dy.shape[1] + 3:
             return (w @ rel) / max(float(w.sum()), 1e-12)
         sw = np.sqrt(w)[:, None]
@@ -290,7 +294,7 @@ class Planner:
         test: its (outcome, context) search is led by the outcome. `spreads`:
         `_spreads(aff)`, when the caller has them already."""
         xs, ctx, y = aff.model.data()
-        effect = np.flatnonzero(np.linalg.norm(y, axis=1) > self.config.zero_eps)
+        effect = np.flatnonzero(self.effect(y))
         if effect.size < SUPPORT_NEIGHBOURS:
             return np.inf
         scale = aff.model.scales().per_column()[:xs.shape[1] + ctx.shape[1]]
@@ -307,7 +311,7 @@ class Planner:
         when fewer than two have one. Over all rows, a push's relation spreads over the whole
         room, and a robot 0.14 m off the side of an object counted as behind it."""
         _, data, y = aff.model.data()
-        effect = np.linalg.norm(y, axis=1) > self.config.zero_eps
+        effect = self.effect(y)
         if effect.sum() >= 2:
             data = data[effect]
         spread = data.std(axis=0)

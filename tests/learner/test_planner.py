@@ -13,15 +13,19 @@ from hadim_cli.learner.models import LocalLinearModel
 from hadim_cli.learner.planner import Planner
 
 
-def _push_like_model(rng: np.random.Generator, outliers: int) -> LocalLinearModel:
-    """Rows of a push: the object moves along the contact direction (robot behind it), plus
+def _planner() -> Planner:
+    return Planner(Hierarchy(), reader=None, config=load_config().learner)  # reader unused
+
+
+def _push_like_model(rng: np.random.Generator, outliers: int, n: int = 300) -> LocalLinearModel:
+    """`n` rows of a push: the object moves along the contact direction (robot behind it), plus
     `outliers` rows with the same outcome from a far, odd place (a bounce)."""
     model = LocalLinearModel(2, 2, [1, 2])  # input; contexts: radius, relation
-    angles = rng.uniform(-np.pi, np.pi, 300)
-    radius = rng.uniform(0.08, 0.25, 300)
+    angles = rng.uniform(-np.pi, np.pi, n)
+    radius = rng.uniform(0.08, 0.25, n)
     direction = np.stack([np.cos(angles), np.sin(angles)], axis=1)
     relation = direction * (radius + 0.15)[:, None]
-    step = rng.uniform(0.02, 0.12, 300)[:, None]
+    step = rng.uniform(0.02, 0.12, n)[:, None]
     model.add(direction * step, np.concatenate([radius[:, None], relation], axis=1),
               direction * step * 0.9)
     odd = np.tile([[0.6, -0.6]], (outliers, 1))
@@ -33,8 +37,7 @@ def _push_like_model(rng: np.random.Generator, outliers: int) -> LocalLinearMode
 
 def test_the_context_to_reach_is_where_such_outcomes_usually_come_from():
     rng = np.random.default_rng(0)
-    config = load_config().learner
-    planner = Planner(Hierarchy(), reader=None, config=config)  # reader unused here
+    planner = _planner()
     aff = SimpleNamespace(model=_push_like_model(rng, outliers=3))
     relations = np.array([False, True])  # the radius is fixed, the relation reachable
     current = np.array([0.12, -0.5, 0.4])  # an object of radius 0.12, robot far away
@@ -51,16 +54,8 @@ def test_the_relation_to_reach_is_fitted_through_the_outcomes_around_the_push():
     # 150 pushes in random directions: no row's outcome is exactly the wanted one, and one
     # row's relation (the densest) was ~11 degrees off the push on average; the weighted
     # linear fit of relation on outcome around it is ~3 degrees off.
-    rng = np.random.default_rng(0)
-    model = LocalLinearModel(2, 2, [1, 2])
-    angles = rng.uniform(-np.pi, np.pi, 150)
-    radius = rng.uniform(0.08, 0.25, 150)
-    direction = np.stack([np.cos(angles), np.sin(angles)], axis=1)
-    step = rng.uniform(0.02, 0.12, 150)[:, None]
-    model.add(direction * step,
-              np.concatenate([radius[:, None], direction * (radius + 0.15)[:, None]], axis=1),
-              direction * step * 0.9)
-    planner = Planner(Hierarchy(), reader=None, config=load_config().learner)
+    model = _push_like_model(np.random.default_rng(0), outliers=0, n=150)
+    planner = _planner()
     errors = []
     for theta in np.linspace(0.0, 2 * np.pi, 32, endpoint=False):
         u = np.array([np.cos(theta), np.sin(theta)])
@@ -120,8 +115,7 @@ def test_the_pose_to_take_is_the_nearest_one_that_produces_the_move():
     """To move 0.08 m along +x the robot can face +x and drive forwards or face -x and drive
     backwards. Facing almost -x already, it keeps that pose instead of turning round."""
     rng = np.random.default_rng(1)
-    config = load_config().learner
-    planner = Planner(Hierarchy(), reader=None, config=config)
+    planner = _planner()
     aff = SimpleNamespace(model=_drive_like_model(rng))
     delta = np.array([0.08, 0.0])
     facing_back = np.array([np.cos(3.0), np.sin(3.0)])
@@ -137,8 +131,7 @@ def test_a_relation_is_measured_against_where_the_affordance_acts():
     object), not from all rows (the robot anywhere in the room): 0.14 m off the side of an
     object is not 'behind' it."""
     rng = np.random.default_rng(2)
-    config = load_config().learner
-    planner = Planner(Hierarchy(), reader=None, config=config)
+    planner = _planner()
     model = _push_like_model(rng, outliers=0)
     far = rng.uniform(-1.5, 1.5, (600, 2))  # rows where nothing moved: the robot far away
     model.add(np.zeros((600, 2)), np.concatenate([np.full((600, 1), 0.12), far], axis=1),
@@ -155,8 +148,7 @@ def test_rows_where_nothing_moved_do_not_support_a_push():
     are near in (input, context) but show no push, so the step is unsupported and the robot
     first gets to contact."""
     rng = np.random.default_rng(3)
-    config = load_config().learner
-    planner = Planner(Hierarchy(), reader=None, config=config)
+    planner = _planner()
     model = _push_like_model(rng, outliers=0)
     n = 200
     far = np.stack([rng.uniform(0.4, 0.5, n), rng.uniform(-0.05, 0.05, n)], axis=1)
