@@ -180,13 +180,14 @@ class LearnerConfig:
     zero_ratio: float = 1.0
     """Null-outcome rows kept per non-null row in an affordance's data."""
     salient_goals: float = 0.5
-    """Share of random goals in an object's position space set at the position of the
-    pushable object nearest the target (objects meet there, within one attempt's reach: where
-    pushing one object with another can be found), pushed on by `salient_beyond`."""
+    """Share of goals in an object's position space (random or by goal babbling) set where
+    objects meet: at the position of the pushable object nearest the target, pushed on by
+    `salient_beyond` (where pushing one object with another can be found); for an affordance
+    acting through a tool, the target pushed on along the line from the tool."""
     salient_beyond: float = 0.3
     """How far (m) beyond the other object, along the line from the target, a salient goal
     lies: the target has to push that object out of its way instead of stopping at it."""
-    goal_budget: int = 25
+    goal_budget: int = 40
     """Primitive actions one goal attempt may use."""
     subgoal_budget: int = 6
     """Primitive actions one sub-goal (a lower affordance's step) may use."""
@@ -198,6 +199,13 @@ class LearnerConfig:
     """Competences the learning progress of a region is computed over."""
     interest_epsilon: float = 0.2
     """Probability of a uniform choice (of affordance, of region) instead of by interest."""
+    surface_relations: bool = True
+    """Read relative positions (target-robot, target-tool, …) between the two bodies'
+    surfaces, offset by `relation_offset`, instead of centre to centre (the paper's wording):
+    a contact then reads the same whatever the objects' sizes."""
+    relation_offset: float = 0.3
+    """Length (m) a relation reads at contact when `surface_relations` is on (> 0: a contact
+    keeps its direction); about the robot's radius plus a middling object's."""
     classifier_hidden: int = 32
     """Width of the two hidden layers of each visual classifier p_A."""
     classifier_steps: int = 30
@@ -224,7 +232,8 @@ class LearnerConfig:
                self.creation_rows)
         _check(self.salient_beyond >= 0, "learner.salient_beyond", "must be >= 0",
                self.salient_beyond)
-        for name in ("zero_eps", "competence_sharpness", "zero_ratio", "reach_tolerance"):
+        for name in ("zero_eps", "competence_sharpness", "zero_ratio", "reach_tolerance",
+                     "relation_offset"):
             value = getattr(self, name)
             _check(value > 0, f"learner.{name}", "must be > 0", value)
 
@@ -374,6 +383,24 @@ def config_from_dict(values: Mapping[str, Any]) -> Config:
     config = _build(Config, values, "")
     config.validate()
     return config
+
+
+LEGACY_DEFAULTS: dict[str, dict[str, Any]] = {
+    "learner": {"surface_relations": False},
+}
+"""Keys added after runs were first stored, with the value that reproduces what a run stored
+without them did (its defaults then): a stored run resumes and evaluates as it was trained."""
+
+
+def stored_config(values: Mapping[str, Any]) -> Config:
+    """The Config of a stored run: `values`, with `LEGACY_DEFAULTS` for keys it lacks."""
+    filled = dict(values)
+    for section, legacy in LEGACY_DEFAULTS.items():
+        table = dict(filled.get(section, {}))
+        for key, value in legacy.items():
+            table.setdefault(key, value)
+        filled[section] = table
+    return config_from_dict(filled)
 
 
 def load_config(path: Path | None = None, overrides: Iterable[str] = ()) -> Config:

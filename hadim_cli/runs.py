@@ -17,7 +17,7 @@ from typing import Any
 
 import numpy as np
 
-from hadim_cli.config import Config, config_from_dict
+from hadim_cli.config import Config, stored_config
 from hadim_cli.errors import HadimError
 from hadim_cli.evaluation.runner import TaskResult, evaluate
 from hadim_cli.evaluation.tasks import load_task
@@ -83,7 +83,7 @@ def restore_session(store: Store, run: RunRecord, at: int | None = None,
     """The run's session as it stood at its checkpoint at or before `at` (latest if None);
     with `config`, as a fork of it with that config would start (to check it fits)."""
     checkpoint = store.checkpoint(run.name, at)
-    config = config_from_dict(run.config) if config is None else config
+    config = stored_config(run.config) if config is None else config
     session = Session(config, run.seed)
     if checkpoint is None:
         if at is not None and at > 0:

@@ -12,6 +12,7 @@ from hadim_cli.config import (
     field_docs,
     load_config,
     parse_override,
+    stored_config,
     with_overrides,
 )
 from hadim_cli.errors import ConfigError
@@ -67,6 +68,16 @@ def test_round_trip_through_dict():
     config = with_overrides(Config(), ["world.n_green=2"])
     assert config_from_dict(config.to_dict()) == config
     assert config.world == dataclasses.replace(WorldConfig(), n_green=2)
+
+
+def test_a_stored_run_without_a_newer_key_keeps_the_behaviour_it_was_trained_with():
+    """Runs stored before `surface_relations` existed read relations centre to centre: a
+    stored config lacking the key restores with the legacy value, one holding it keeps it."""
+    values = Config().to_dict()
+    assert values["learner"]["surface_relations"] is True
+    del values["learner"]["surface_relations"]
+    assert stored_config(values).learner.surface_relations is False
+    assert stored_config(Config().to_dict()) == Config()
 
 
 def test_missing_or_broken_file(tmp_path):

@@ -197,11 +197,11 @@ def fork(
 ) -> None:
     """A new run whose history up to a checkpoint is the parent's; the parent is untouched."""
     from hadim_cli import runs
-    from hadim_cli.config import config_from_dict, with_overrides
+    from hadim_cli.config import stored_config, with_overrides
 
     with runs.open_store(store, create=False) as st:
         parent = st.get_run(run)
-        config = with_overrides(config_from_dict(parent.config), set_ or [])
+        config = with_overrides(stored_config(parent.config), set_ or [])
         if set_:  # refuse, before writing anything, a config that cannot continue this history
             runs.restore_session(st, parent, parent.iterations if at is None else at, config)
         child = st.fork(run, at_iteration=at, config=config.to_dict(),

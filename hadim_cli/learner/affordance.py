@@ -142,13 +142,14 @@ class Fitter:
         action, or (with `after`) before or after it."""
         d = self.dataset
         rel = RoleSpace(Role.TARGET, Property.POSITION, actor)
-        before = self.reader.read(rel, d.contexts, rows)
+        before = self.reader.read(rel, d.contexts, rows, raw=True)
         reach = (self.reader.read(RoleSpace(Role.TARGET, Property.RADIUS), d.contexts, rows)[:, 0]
                  + self.reader.read(RoleSpace(actor, Property.RADIUS), d.contexts, rows)[:, 0]
                  + CONTACT_MARGIN)
         out = np.linalg.norm(before, axis=1) <= reach
         if after:
-            out |= np.linalg.norm(before + self.reader.read(rel, d.outcomes, rows), axis=1) <= reach
+            after = before + self.reader.read(rel, d.outcomes, rows, raw=True)
+            out |= np.linalg.norm(after, axis=1) <= reach
         return out
 
     def changed(self, space: RoleSpace, t: np.ndarray) -> tuple[Rows, np.ndarray]:

@@ -50,7 +50,8 @@ class Learner:
     def __init__(self, config: LearnerConfig, layout: ObservationLayout):
         self.config = config
         self.layout = layout
-        self.reader = SpaceReader(layout)
+        self.reader = SpaceReader(
+            layout, config.relation_offset if config.surface_relations else None)
         self.dataset = Dataset(layout.size)
         self.hierarchy = Hierarchy()
         self.fitter = Fitter(self.dataset, self.reader, config)
@@ -103,21 +104,29 @@ class Learner:
 
     def salient_goal(self, aff: Affordance, binding: Binding, obs: np.ndarray,
                      rng: np.random.Generator) -> np.ndarray | None:
-        """The position of the object nearest the target among those `aff`'s p_A accepts
-        (where pushing the target meets another object, within reach of one attempt), pushed
-        on by `salient_beyond` along the line from the target (so that the target has to push
-        that object on: a long push, with the target as a tool), for a share `salient_goals`
-        of random goals in an object's position space."""
+        """For a share `salient_goals` of goals in an object's position space (random or by
+        goal babbling), a goal where objects meet: the position of the object nearest the
+        target among those `aff`'s p_A accepts (within reach of one attempt), pushed on by
+        `salient_beyond` along the line from the target, so that the target has to push that
+        object on (a long push, with the target as a tool); through a tool (`binding.tool`
+        bound), the target itself pushed on along the line from the tool, i.e. the tool
+        driven straight into it from where it is. None for the other goals."""
         space = aff.output
         if (space.role is not Role.TARGET or space.prop is not Property.POSITION
                 or binding.target < 0 or rng.random() >= self.config.salient_goals):
             return None
-        other = self.closest(self.accepted_objects(aff, obs), obs, exclude=binding.target,
-                             to=binding.target)
-        if other < 0:
-            return None
-        there = self.reader.entity_position(obs, other)
-        line = there - self.reader.entity_position(obs, binding.target)
+        if binding.tool >= 0:
+            # Through a tool: the target pushed on along the line from the tool, i.e. the tool
+            # driven straight into it from where it is.
+            there = self.reader.entity_position(obs, binding.target)
+            line = there - self.reader.entity_position(obs, binding.tool)
+        else:
+            other = self.closest(self.accepted_objects(aff, obs), obs, exclude=binding.target,
+                                 to=binding.target)
+            if other < 0:
+                return None
+            there = self.reader.entity_position(obs, other)
+            line = there - self.reader.entity_position(obs, binding.target)
         unit = line / max(float(np.linalg.norm(line)), 1e-9)
         return there + self.config.salient_beyond * unit
 
@@ -145,6 +154,9 @@ class Learner:
         binding = self.select_binding(aff, actuator.obs)
         if binding is None:
             return self._random_controllable(actuator, rng)
+        salient = self.salient_goal(aff, binding, actuator.obs, rng)
+        if salient is not None:
+            goal = salient
         attempt = self.planner.reach(aff, binding, goal, actuator, self.config.goal_budget)
         if attempt.actions == 0:
             # Nothing could be planned: babble instead so the episode still explores.

@@ -133,10 +133,21 @@ class Rows:
 
 
 class SpaceReader:
-    """Reads role spaces out of D's flat arrays for many rows at once (vectorised)."""
+    """Reads role spaces out of D's flat arrays for many rows at once (vectorised).
 
-    def __init__(self, layout: ObservationLayout):
+    A relative position (`target-robot`, `target-tool`, …) is read centre to centre, or, with
+    a `relation_offset` r, between the two bodies' surfaces: the centre-to-centre vector with
+    its length cut by the sum of the radii and lengthened by r. Two bodies in contact then
+    read a relation of length r towards each other whatever their sizes (as a LIDAR sees the
+    surface of an object, not its centre), and a push learned on one object carries over to a
+    larger one; r > 0 keeps the direction of a contact.
+    """
+
+    def __init__(self, layout: ObservationLayout, relation_offset: float | None = None):
+        if relation_offset is not None and relation_offset <= 0:
+            raise ValueError(f"relation_offset must be > 0, got {relation_offset}")
         self.layout = layout
+        self.relation_offset = relation_offset
         self._entity_start = np.array(
             [layout.space(e, Property.POSITION).start for e in layout.entities], dtype=np.int64)
 
@@ -171,8 +182,11 @@ class SpaceReader:
         return arr[rows.t[:, None], cols[:, None] + np.arange(dim)]
 
     def read(self, space: RoleSpace, arr: np.ndarray, rows: Rows,
-             actions: np.ndarray | None = None) -> np.ndarray:
-        """Values of `space` in `arr` (contexts, or outcomes for deltas) at `rows`."""
+             actions: np.ndarray | None = None, *, raw: bool = False) -> np.ndarray:
+        """Values of `space` in `arr` (contexts, or outcomes for deltas) at `rows`.
+
+        `raw` reads a relative position centre to centre whatever the reader's offset (its
+        change between two observations, or a distance to compare with radii)."""
         if space.role is Role.ACTION:
             assert actions is not None
             return actions[rows.t]
@@ -180,7 +194,23 @@ class SpaceReader:
         values = self._gather(arr, space.role, space.prop, rows)
         if space.relative_to is not None:
             values = values - self._gather(arr, space.relative_to, space.prop, rows)
+            if not raw and self.relation_offset is not None:
+                contact = (self._gather(arr, space.role, Property.RADIUS, rows)[:, 0]
+                           + self._gather(arr, space.relative_to, Property.RADIUS, rows)[:, 0])
+                norm = np.maximum(np.linalg.norm(values, axis=1), 1e-9)
+                values = values * ((norm - contact + self.relation_offset) / norm)[:, None]
         return values
+
+    def relation_to_offset(self, want: np.ndarray, contact: float) -> np.ndarray:
+        """The centre-to-centre offset of two bodies whose radii sum to `contact` that reads
+        as the relation `want` (the inverse of `read` for a relative position). A relation
+        shorter than the offset asks for the bodies pressed together (a push from behind
+        presses on); at least 1 mm apart, centre to centre, in its direction."""
+        if self.relation_offset is None:
+            return np.asarray(want, dtype=float)
+        norm = max(float(np.linalg.norm(want)), 1e-9)
+        length = max(norm - self.relation_offset + contact, 1e-3)
+        return np.asarray(want, dtype=float) * (length / norm)
 
     def read_many(self, spaces: tuple[RoleSpace, ...], arr: np.ndarray, rows: Rows) -> np.ndarray:
         if not spaces:

@@ -122,3 +122,60 @@ def test_a_salient_goal_lies_beyond_the_object_nearest_the_target():
     for g in salient:
         assert np.allclose(np.linalg.norm(g - there), beyond)
         assert np.linalg.norm(g - here) > np.linalg.norm(there - here)  # past it, not before
+
+
+def test_a_salient_goal_through_a_tool_drives_the_tool_straight_into_the_target():
+    """With a tool bound, the salient goal is the target pushed on along the line from the
+    tool: the tool driven into it from where it is (no trip round the target first)."""
+    from types import SimpleNamespace
+
+    from hadim_cli.learner.planner import Binding
+
+    session = Session(load_config(), seed=0)
+    learner = session.learner
+    obs = session.world.reset(np.random.default_rng(5))
+    reader = learner.reader
+    target, tool = 1, 2
+    here, tool_at = reader.entity_position(obs, target), reader.entity_position(obs, tool)
+    push = SimpleNamespace(output=RoleSpace(Role.TARGET, Property.POSITION), classifier=None)
+    rng = np.random.default_rng(0)
+    goals = [learner.salient_goal(push, Binding(target=target, tool=tool), obs, rng)
+             for _ in range(40)]
+    salient = [g for g in goals if g is not None]
+    assert 5 < len(salient) < 35
+    line = (here - tool_at) / np.linalg.norm(here - tool_at)
+    for g in salient:
+        assert np.allclose(g, here + learner.config.salient_beyond * line)
+
+
+def test_goal_babbling_takes_salient_goals_for_objects(monkeypatch):
+    """GoalSelection for an object-moving affordance takes the salient goal for a share
+    `salient_goals` of its goals (the interest map's goal otherwise), tries it, and its
+    interest map records the goal tried."""
+    from types import SimpleNamespace
+
+    from hadim_cli.learner.interest import InterestMap
+    from hadim_cli.learner.planner import Attempt, Binding
+
+    session = Session(load_config(), seed=0)
+    learner = session.learner
+    obs = session.world.reset(np.random.default_rng(5))
+    interest = InterestMap(np.array([-2.0, -2.0]), np.array([2.0, 2.0]),
+                           max_goals_per_region=50, window=20)
+    aff = SimpleNamespace(id=3, output=RoleSpace(Role.TARGET, Property.POSITION),
+                          classifier=None, interest=interest)
+    tried = []
+    monkeypatch.setattr(learner, "select_binding", lambda a, o: Binding(target=1))
+    monkeypatch.setattr(learner.planner, "reach",
+                        lambda a, b, goal, act, budget: tried.append(goal) or Attempt(1, 1, 1))
+    actuator = SimpleNamespace(obs=obs)
+    rng = np.random.default_rng(0)
+    for _ in range(40):
+        learner._goal_babbling([aff], actuator, rng)
+    there = learner.reader.entity_position(obs, learner.closest(
+        np.arange(2, len(learner.layout.entities)), obs, to=1))
+    salient = [g for g in tried if np.isclose(np.linalg.norm(g - there),
+                                              learner.config.salient_beyond)]
+    assert 5 < len(salient) < 35  # the rest come from the interest map
+    recorded = interest.state()[1]["goals"]
+    assert len(recorded) == 40 and any(np.allclose(g, salient[0]) for g in recorded)

@@ -11,6 +11,9 @@ from hadim_cli.learner.adaptation import required_gain
 from hadim_cli.learner.hierarchy import Hierarchy
 from hadim_cli.learner.models import LocalLinearModel
 from hadim_cli.learner.planner import Planner
+from hadim_cli.learner.spaces import Property, Role, RoleSpace
+
+TARGET_ROBOT = RoleSpace(Role.TARGET, Property.POSITION, Role.ROBOT)
 
 
 def _planner() -> Planner:
@@ -160,3 +163,28 @@ def test_rows_where_nothing_moved_do_not_support_a_push():
     assert planner.support_gap(aff, np.array([0.1, 0.0]), away, relations) > 0.5
     at_contact = np.array([0.12, 0.27, 0.0])
     assert planner.support_gap(aff, np.array([0.1, 0.0]), at_contact, relations) < 0.3
+
+
+def test_a_surface_relation_is_reached_at_the_current_pair_s_contact():
+    """With surface relations, the place to push from is computed from the sizes of the
+    bodies at hand: a reading of `relation_offset` towards the object puts the robot in
+    contact with it (0.15 + 0.12 m from its centre), not at the learned centre distance of
+    other objects."""
+    from hadim_cli.learner.planner import ROBOT_POSITION, Binding
+    from hadim_cli.learner.spaces import SpaceReader
+    from hadim_cli.world.layout import LayoutBounds, ObservationLayout
+
+    layout = ObservationLayout.build(2, 4, LayoutBounds(2, 2, 1.5, 0.25, 0.6))
+    obs = np.zeros(layout.size)
+    obs[layout.space("robot", Property.RADIUS).slice] = 0.15
+    obs[layout.space("obj1", Property.RADIUS).slice] = 0.12
+    obs[layout.space("obj1", Property.POSITION).slice] = [0.4, 0.2]
+    hierarchy = SimpleNamespace(controllers=lambda space: [])
+    planner = Planner(hierarchy, SpaceReader(layout, relation_offset=0.3),
+                      load_config().learner)
+    u = np.array([0.0, 1.0])
+    driven, goal, _ = planner._context_goal(TARGET_ROBOT, 0.3 * u, obs, Binding(target=1))
+    assert driven == ROBOT_POSITION
+    assert np.allclose(goal, np.array([0.4, 0.2]) - 0.27 * u)
+    obs[layout.space("robot", Property.POSITION).slice] = goal  # there: it reads as wanted
+    assert np.allclose(planner.value(TARGET_ROBOT, obs, Binding(target=1)), 0.3 * u)

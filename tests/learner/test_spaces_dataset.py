@@ -91,3 +91,28 @@ def test_p_a_features_of_the_robot_are_its_own():
     radius = RoleSpace(Role.TARGET, Property.RADIUS)
     assert reader.read(radius, d.contexts, rows)[0, 0] == obs[0][layout.space("robot",
                                                                           Property.RADIUS).start]
+
+
+def test_surface_relations_read_a_contact_alike_whatever_the_sizes():
+    """With a relation offset, a relative position is read between surfaces: bodies in
+    contact read the offset's length towards each other, small or large, and
+    `relation_to_offset` turns a reading back into centres."""
+    layout = _layout()
+    reader = SpaceReader(layout, relation_offset=0.3)
+    rel = RoleSpace(Role.TARGET, Property.POSITION, Role.TOOL)
+    obs = np.zeros((2, layout.size))
+    direction = np.array([0.6, 0.8])
+    for row, (r_target, r_tool) in enumerate(((0.08, 0.1), (0.25, 0.2))):
+        for entity, radius, at in (("obj1", r_target, direction * (r_target + r_tool)),
+                                   ("obj2", r_tool, np.zeros(2))):
+            obs[row, layout.space(entity, Property.POSITION).slice] = at
+            obs[row, layout.space(entity, Property.RADIUS).slice] = radius
+    rows = Rows(np.array([0, 1]), np.array([1, 1]), np.array([2, 2]))
+    read = reader.read(rel, obs, rows)
+    assert np.allclose(read, 0.3 * direction)  # both pairs in contact: the same reading
+    raw = reader.read(rel, obs, rows, raw=True)
+    assert np.allclose(raw[1], 0.45 * direction)  # centre to centre on request
+    assert np.allclose(reader.relation_to_offset(read[1], 0.45), raw[1])
+    # 0.2 m apart at the surfaces reads 0.5 m; centre to centre without an offset.
+    assert np.allclose(reader.relation_to_offset(0.5 * direction, 0.18), 0.38 * direction)
+    assert np.allclose(SpaceReader(layout).read(rel, obs, rows), raw)
