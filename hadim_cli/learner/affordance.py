@@ -148,8 +148,8 @@ class Fitter:
                  + CONTACT_MARGIN)
         out = np.linalg.norm(before, axis=1) <= reach
         if after:
-            after = before + self.reader.read(rel, d.outcomes, rows, raw=True)
-            out |= np.linalg.norm(after, axis=1) <= reach
+            then = before + self.reader.read(rel, d.outcomes, rows, raw=True)
+            out |= np.linalg.norm(then, axis=1) <= reach
         return out
 
     def changed(self, space: RoleSpace, t: np.ndarray) -> tuple[Rows, np.ndarray]:

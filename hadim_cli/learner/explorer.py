@@ -116,8 +116,6 @@ class Learner:
                 or binding.target < 0 or rng.random() >= self.config.salient_goals):
             return None
         if binding.tool >= 0:
-            # Through a tool: the target pushed on along the line from the tool, i.e. the tool
-            # driven straight into it from where it is.
             there = self.reader.entity_position(obs, binding.target)
             line = there - self.reader.entity_position(obs, binding.tool)
         else:

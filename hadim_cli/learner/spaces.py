@@ -185,8 +185,9 @@ class SpaceReader:
              actions: np.ndarray | None = None, *, raw: bool = False) -> np.ndarray:
         """Values of `space` in `arr` (contexts, or outcomes for deltas) at `rows`.
 
-        `raw` reads a relative position centre to centre whatever the reader's offset (its
-        change between two observations, or a distance to compare with radii)."""
+        `raw` reads a relative position centre to centre whatever the reader's offset: a
+        distance to compare with radii, or its change between two observations (from the
+        outcomes, a relative position must be read raw: a change has no radii)."""
         if space.role is Role.ACTION:
             assert actions is not None
             return actions[rows.t]
