@@ -143,9 +143,7 @@ class Fitter:
         d = self.dataset
         rel = RoleSpace(Role.TARGET, Property.POSITION, actor)
         before = self.reader.read(rel, d.contexts, rows, raw=True)
-        reach = (self.reader.read(RoleSpace(Role.TARGET, Property.RADIUS), d.contexts, rows)[:, 0]
-                 + self.reader.read(RoleSpace(actor, Property.RADIUS), d.contexts, rows)[:, 0]
-                 + CONTACT_MARGIN)
+        reach = self.reader.contact(rel, d.contexts, rows) + CONTACT_MARGIN
         out = np.linalg.norm(before, axis=1) <= reach
         if after:
             then = before + self.reader.read(rel, d.outcomes, rows, raw=True)

@@ -152,6 +152,7 @@ class Learner:
         binding = self.select_binding(aff, actuator.obs)
         if binding is None:
             return self._random_controllable(actuator, rng)
+        # The interest map's goal is drawn first either way: one layout of the random stream.
         salient = self.salient_goal(aff, binding, actuator.obs, rng)
         if salient is not None:
             goal = salient

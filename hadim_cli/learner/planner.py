@@ -405,25 +405,18 @@ class Planner:
     def _context_goal(self, space: RoleSpace, want: np.ndarray, obs: np.ndarray,
                       b: Binding) -> tuple[RoleSpace, np.ndarray, Binding] | None:
         """Which controllable space to drive, to what value, so that `space` reads `want`."""
-        robot_pos = RoleSpace(Role.ROBOT, Property.POSITION)
         if space.role is Role.ROBOT and space.prop in (Property.POSITION, Property.HEADING):
             return space, _normalise_heading(space, want), b
+        if space.relative_to is None:
+            return None
+        anchor = self.value(RoleSpace(space.role, Property.POSITION), obs, b)
+        offset = self.reader.offset_now(space, want, obs, b.target, b.tool)
         if space.relative_to is Role.ROBOT:
-            anchor = self.value(RoleSpace(space.role, Property.POSITION), obs, b)
-            offset = self.reader.relation_to_offset(want, self._contact(space, obs, b))
-            return robot_pos, anchor - offset, b
+            return ROBOT_POSITION, anchor - offset, b
         if space.role is Role.TARGET and space.relative_to is Role.TOOL:
-            anchor = self.value(RoleSpace(Role.TARGET, Property.POSITION), obs, b)
             tool_as_target = Binding(target=b.tool, avoid=b.target)
-            offset = self.reader.relation_to_offset(want, self._contact(space, obs, b))
             return RoleSpace(Role.TARGET, Property.POSITION), anchor - offset, tool_as_target
         return None
-
-    def _contact(self, space: RoleSpace, obs: np.ndarray, b: Binding) -> float:
-        """Sum of the radii of the two bodies of a relative position under binding `b`."""
-        assert space.relative_to is not None
-        return float(self.value(RoleSpace(space.role, Property.RADIUS), obs, b)[0]
-                     + self.value(RoleSpace(space.relative_to, Property.RADIUS), obs, b)[0])
 
     def _waypoints(self, driven: RoleSpace, goal: np.ndarray, obs: np.ndarray, b: Binding,
                    mover: int) -> list[np.ndarray]:

@@ -196,11 +196,17 @@ class SpaceReader:
         if space.relative_to is not None:
             values = values - self._gather(arr, space.relative_to, space.prop, rows)
             if not raw and self.relation_offset is not None:
-                contact = (self._gather(arr, space.role, Property.RADIUS, rows)[:, 0]
-                           + self._gather(arr, space.relative_to, Property.RADIUS, rows)[:, 0])
+                contact = self.contact(space, arr, rows)
                 norm = np.maximum(np.linalg.norm(values, axis=1), 1e-9)
                 values = values * ((norm - contact + self.relation_offset) / norm)[:, None]
         return values
+
+    def contact(self, space: RoleSpace, arr: np.ndarray, rows: Rows) -> np.ndarray:
+        """Centre distance at which the two bodies of the relative position `space` touch (the
+        sum of their radii) in the observations `arr` at `rows`."""
+        assert space.relative_to is not None
+        return (self._gather(arr, space.role, Property.RADIUS, rows)[:, 0]
+                + self._gather(arr, space.relative_to, Property.RADIUS, rows)[:, 0])
 
     def relation_to_offset(self, want: np.ndarray, contact: float) -> np.ndarray:
         """The centre-to-centre offset of two bodies whose radii sum to `contact` that reads
@@ -212,6 +218,13 @@ class SpaceReader:
         norm = max(float(np.linalg.norm(want)), 1e-9)
         length = max(norm - self.relation_offset + contact, 1e-3)
         return np.asarray(want, dtype=float) * (length / norm)
+
+    def offset_now(self, space: RoleSpace, want: np.ndarray, obs: np.ndarray, target: int = -1,
+                   tool: int = -1) -> np.ndarray:
+        """`relation_to_offset` for the bodies `space` binds in one observation: where the
+        second body must stand, from the first, for `space` to read `want`."""
+        rows = Rows(np.zeros(1, dtype=np.int64), np.array([target]), np.array([tool]))
+        return self.relation_to_offset(want, float(self.contact(space, obs[None, :], rows)[0]))
 
     def read_many(self, spaces: tuple[RoleSpace, ...], arr: np.ndarray, rows: Rows) -> np.ndarray:
         if not spaces:
