@@ -206,6 +206,10 @@ class LearnerConfig:
     relation_offset: float = 0.3
     """Length (m) a relation reads at contact when `surface_relations` is on (> 0: a contact
     keeps its direction); about the robot's radius plus a middling object's."""
+    relation_frames: bool = True
+    """Fit the models of an affordance with a relation context (target-robot, target-tool) in
+    the frame of that relation: a push then reads the same from any bearing (the physics of
+    the room turns with the scene). Off: in room coordinates."""
     classifier_hidden: int = 32
     """Width of the two hidden layers of each visual classifier p_A."""
     classifier_steps: int = 30
@@ -386,7 +390,7 @@ def config_from_dict(values: Mapping[str, Any]) -> Config:
 
 
 LEGACY_DEFAULTS: dict[str, dict[str, Any]] = {
-    "learner": {"surface_relations": False},
+    "learner": {"surface_relations": False, "relation_frames": False},
 }
 """Keys added after runs were first stored, with the value that reproduces what a run stored
 without them did (its defaults then): a stored run resumes and evaluates as it was trained."""

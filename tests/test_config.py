@@ -74,9 +74,11 @@ def test_a_stored_run_without_a_newer_key_keeps_the_behaviour_it_was_trained_wit
     """Runs stored before `surface_relations` existed read relations centre to centre: a
     stored config lacking the key restores with the legacy value, one holding it keeps it."""
     values = Config().to_dict()
-    assert values["learner"]["surface_relations"] is True
-    del values["learner"]["surface_relations"]
-    assert stored_config(values).learner.surface_relations is False
+    for key in ("surface_relations", "relation_frames"):
+        assert values["learner"][key] is True
+        del values["learner"][key]
+    legacy = stored_config(values).learner
+    assert legacy.surface_relations is False and legacy.relation_frames is False
     assert stored_config(Config().to_dict()) == Config()
 
 

@@ -15,6 +15,7 @@ from hadim_cli.config import LearnerConfig
 from hadim_cli.learner.classifier import VisualClassifier
 from hadim_cli.learner.competence import model_competence, range_scale
 from hadim_cli.learner.dataset import Dataset
+from hadim_cli.learner.frames import FramedModel, Model, relation_frame
 from hadim_cli.learner.interest import InterestMap
 from hadim_cli.learner.models import LocalLinearModel
 from hadim_cli.learner.spaces import ACTION, Role, RoleSpace, Rows, SpaceReader, space_dim
@@ -34,7 +35,7 @@ class Affordance:
     contexts: tuple[RoleSpace, ...]
     created_at: int
     rows: Rows
-    model: LocalLinearModel
+    model: Model
     interest: InterestMap
     classifier: VisualClassifier | None
     competence: float = 0.0
@@ -184,26 +185,30 @@ class Fitter:
 
     # ------------------------------------------------------------------ models
     def new_model(self, inp: RoleSpace, out: RoleSpace,
-                  contexts: tuple[RoleSpace, ...]) -> LocalLinearModel:
+                  contexts: tuple[RoleSpace, ...]) -> Model:
+        """An empty model of (inp → out | contexts): in the frame of its relation context when
+        `relation_frames` is on and it has one (`relation_frame`)."""
         layout = self.reader.layout
         low = np.array([-1.0, -1.0]) if inp is ACTION else None
         high = np.array([1.0, 1.0]) if inp is ACTION else None
-        return LocalLinearModel(
-            space_dim(inp, layout), space_dim(out, layout),
-            [space_dim(c, layout) for c in contexts],
-            k_forward=self.config.k_forward, k_inverse=self.config.k_inverse,
-            x_low=low, x_high=high,
-        )
+        dims = (space_dim(inp, layout), space_dim(out, layout),
+                [space_dim(c, layout) for c in contexts])
+        params = {"k_forward": self.config.k_forward, "k_inverse": self.config.k_inverse,
+                  "x_low": low, "x_high": high}
+        frame = relation_frame(inp, out, contexts) if self.config.relation_frames else None
+        if frame is not None:
+            return FramedModel(*dims, frame, **params)
+        return LocalLinearModel(*dims, **params)
 
     def fit(self, inp: RoleSpace, out: RoleSpace, contexts: tuple[RoleSpace, ...],
-            rows: Rows) -> LocalLinearModel:
+            rows: Rows) -> Model:
         model = self.new_model(inp, out, contexts)
         if len(rows):
             s = self.values(inp, out, contexts, rows)
             model.add(s.x, s.c, s.y)
         return model
 
-    def competence(self, model: LocalLinearModel, rng: np.random.Generator) -> float:
+    def competence(self, model: Model, rng: np.random.Generator) -> float:
         if model.n < 3:
             return 0.0
         # Errors relative to the width of the output's range: C(e) of the authors expects e of

@@ -14,8 +14,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from hadim_cli.learner.frames import Model
 from hadim_cli.learner.interest import learning_progress  # noqa: F401  (one definition)
-from hadim_cli.learner.models import LocalLinearModel, rms_scale
+from hadim_cli.learner.models import rms_scale
 
 
 @dataclass(frozen=True)
@@ -76,7 +77,7 @@ def evaluation_rows(zero: np.ndarray, max_rows: int | None,
     return np.sort(np.concatenate(picked))
 
 
-def model_competence(model: LocalLinearModel, *, zero_eps: float, sharpness: float = 20.0,
+def model_competence(model: Model, *, zero_eps: float, sharpness: float = 20.0,
                      max_rows: int | None = None, rng: np.random.Generator | None = None,
                      zero_weight: float = 0.5, scale: float | None = None) -> CompetenceReport:
     """Held-out competence of `model`'s forward model (see the module docstring).

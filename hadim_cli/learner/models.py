@@ -493,22 +493,34 @@ class LocalLinearModel:
     def from_state(cls, state: dict[str, np.ndarray], **params: Any) -> LocalLinearModel:
         """Rebuild a model saved by `state()`; `params` override the saved keyword parameters
         (dimensions always come from the state)."""
+        if "frame" in state:
+            raise ValueError("this model state has a frame: it is a FramedModel's")
         dims = [int(d) for d in state["dims"]]
+        saved = cls.saved_params(state)
+        saved.update(params)
+        model = cls(dims[0], dims[1], dims[2:], **saved)
+        if state["x"].shape[0]:
+            model.add(state["x"], state["c"], state["y"])
+        model.restore_indexes(state["built"])
+        return model
+
+    @staticmethod
+    def saved_params(state: dict[str, np.ndarray]) -> dict[str, Any]:
+        """The keyword parameters saved in a `state()`."""
         k, reals = state["k"], state["reals"]
-        saved: dict[str, Any] = {
+        return {
             "k_forward": int(k[0]), "k_inverse": int(k[1]), "refine_steps": int(k[2]),
             "ridge": float(reals[0]), "trust_radius": float(reals[1]), "damping": float(reals[2]),
             "x_low": state["x_low"] if state["x_low"].size else None,
             "x_high": state["x_high"] if state["x_high"].size else None,
         }
-        saved.update(params)
-        model = cls(dims[0], dims[1], dims[2:], **saved)
-        if state["x"].shape[0]:
-            model.add(state["x"], state["c"], state["y"])
-        for name, (built, checked) in zip(_INDEXES, state["built"], strict=True):
-            if built >= 0:
-                model._build(name, int(built), int(checked))
-        return model
+
+    def restore_indexes(self, built: np.ndarray) -> None:
+        """Rebuild each index over the rows it held when `state()` saved `built` (its "built"
+        array): the next adds then rebuild them exactly when the saved model would have."""
+        for name, (n_built, checked) in zip(_INDEXES, built, strict=True):
+            if n_built >= 0:
+                self._build(name, int(n_built), int(checked))
 
     # ------------------------------------------------------------------ helpers
     def _require_data(self) -> None:

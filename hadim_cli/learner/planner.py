@@ -21,6 +21,7 @@ import numpy as np
 from hadim_cli.config import LearnerConfig
 from hadim_cli.learner.affordance import CONTACT_MARGIN, Affordance, typical_step
 from hadim_cli.learner.competence import split_zero
+from hadim_cli.learner.frames import seen
 from hadim_cli.learner.hierarchy import Hierarchy
 from hadim_cli.learner.spaces import ACTION, Property, Role, RoleSpace, SpaceReader
 
@@ -240,10 +241,12 @@ class Planner:
         `relations`: e.g. the object's radius) are nearest the current ones, the relation
         values where most of them agree (a kernel density mode): one push seen from an odd
         place (a bounce, a chain of contacts) must not send the robot there. The result is `c`
-        with its relation columns replaced.
+        with its relation columns replaced. Rows of a model in a relation's frame are first
+        turned so that each outcome points along `delta` (`frames.seen`): every push, from
+        whatever bearing, then shows where a push along `delta` is made from.
         """
         x_cols = aff.model.dx
-        _, ctx, y = aff.model.data()
+        _, ctx, y = seen(aff.model, along=delta)
         scale = aff.model.scales().per_column()
         ctx_scale, y_scale = scale[x_cols:x_cols + ctx.shape[1]], scale[x_cols + ctx.shape[1]:]
         effect = self.effect(y)
@@ -291,9 +294,10 @@ class Planner:
         normalised (input, context). Rows where nothing moved support no effect: with them,
         a robot 0.45 m from an object looked supported for a push, and its inverse answer (an
         extrapolation) drove it past the object's side. The inverse model's own row is no
-        test: its (outcome, context) search is led by the outcome. `spreads`:
-        `_spreads(aff)`, when the caller has them already."""
-        xs, ctx, y = aff.model.data()
+        test: its (outcome, context) search is led by the outcome. Rows of a model in a
+        relation's frame are turned to the bearing of `c`'s relation first (`frames.seen`), as
+        the model reads them. `spreads`: `_spreads(aff)`, when the caller has them already."""
+        xs, ctx, y = seen(aff.model, at=c)
         effect = np.flatnonzero(self.effect(y))
         if effect.size < SUPPORT_NEIGHBOURS:
             return np.inf
@@ -309,7 +313,10 @@ class Planner:
         """Per context space of `aff`: the norm of its per-column standard deviations over the
         rows with an effect (the places it acts from: near contact for a push), or all rows
         when fewer than two have one. Over all rows, a push's relation spreads over the whole
-        room, and a robot 0.14 m off the side of an object counted as behind it."""
+        room, and a robot 0.14 m off the side of an object counted as behind it. Rows are read
+        as stored, not turned along one outcome: turned, a push's relation spreads 0.14 m
+        instead of 0.34 m, and the planner re-placed the robot so often that pushing an
+        object scored 0.85 instead of 0.91 (5 seeds)."""
         _, data, y = aff.model.data()
         effect = self.effect(y)
         if effect.sum() >= 2:

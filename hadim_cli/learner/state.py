@@ -16,7 +16,6 @@ from hadim_cli.learner.classifier import VisualClassifier
 from hadim_cli.learner.explorer import Learner
 from hadim_cli.learner.hierarchy import Event, EventKind
 from hadim_cli.learner.interest import InterestMap
-from hadim_cli.learner.models import LocalLinearModel
 from hadim_cli.learner.spaces import Rows, parse_space
 
 FORMAT = 1
@@ -89,8 +88,7 @@ def _restore_affordance(learner: Learner, meta: dict[str, Any],
     inp, out = parse_space(meta["input"]), parse_space(meta["output"])
     contexts = tuple(parse_space(c) for c in meta["contexts"])
     template = learner.fitter.new_model(inp, out, contexts)
-    model = LocalLinearModel.from_state(_strip(f"{p}.model", arrays),
-                                        **template.params())
+    model = type(template).from_state(_strip(f"{p}.model", arrays), **template.params())
     interest = InterestMap.from_state(meta["interest"], _strip(f"{p}.interest", arrays))
     classifier = None
     if meta["classifier"]:

@@ -8,12 +8,15 @@ import numpy as np
 
 from hadim_cli.config import load_config
 from hadim_cli.learner.adaptation import required_gain
+from hadim_cli.learner.frames import FramedModel, relation_frame
 from hadim_cli.learner.hierarchy import Hierarchy
 from hadim_cli.learner.models import LocalLinearModel
-from hadim_cli.learner.planner import Planner
+from hadim_cli.learner.planner import ROBOT_POSITION, Planner
 from hadim_cli.learner.spaces import Property, Role, RoleSpace
 
 TARGET_ROBOT = RoleSpace(Role.TARGET, Property.POSITION, Role.ROBOT)
+TARGET_POSITION = RoleSpace(Role.TARGET, Property.POSITION)
+RADIUS = RoleSpace(Role.TARGET, Property.RADIUS)
 
 
 def _planner() -> Planner:
@@ -69,6 +72,38 @@ def test_the_relation_to_reach_is_fitted_through_the_outcomes_around_the_push():
     assert np.mean(errors) < 5.0
 
 
+def test_a_framed_model_knows_where_to_push_from_at_bearings_it_never_saw():
+    """Pushes seen only towards the first quadrant: a model in the relation's frame still
+    places the robot behind the object for a push towards the third (its rows, turned along
+    the wanted outcome, all vote for the same place); in room coordinates the rows vote for
+    where they were, ~180 degrees off."""
+    rng = np.random.default_rng(2)
+    room = _push_like_model(rng, outliers=0, n=150)
+    x, c, y = room.data()
+    keep = (c[:, 1] > 0) & (c[:, 2] > 0)
+    framed = FramedModel(2, 2, [1, 2], relation_frame(ROBOT_POSITION, TARGET_POSITION,
+                                                      (RADIUS, TARGET_ROBOT)))
+    framed.add(x[keep], c[keep], y[keep])
+    planner = _planner()
+    u = np.array([-1.0, -1.0]) / np.sqrt(2)
+    current = np.array([0.12, *(-0.5 * u)])
+    off = {}
+    for name, model in (("framed", framed), ("room", room_model(x[keep], c[keep], y[keep]))):
+        needed = planner.needed_context(SimpleNamespace(model=model), 0.1 * u, current,
+                                        np.array([False, True]))
+        cos = float(needed[1:] @ u) / np.linalg.norm(needed[1:])
+        off[name] = np.degrees(np.arccos(np.clip(cos, -1.0, 1.0)))
+        if name == "framed":
+            assert abs(np.linalg.norm(needed[1:]) - 0.27) < 0.05
+    assert off["framed"] < 10.0 and off["room"] > 90.0, off
+
+
+def room_model(x: np.ndarray, c: np.ndarray, y: np.ndarray) -> LocalLinearModel:
+    model = LocalLinearModel(2, 2, [1, 2])
+    model.add(x, c, y)
+    return model
+
+
 def test_a_context_change_must_earn_its_complexity():
     assert required_gain(1, 2, 0.1) == 0.1  # adding
     assert required_gain(1, 1, 0.1) == 0.05  # replacing
@@ -78,7 +113,7 @@ def test_a_context_change_must_earn_its_complexity():
 def test_the_planner_refuses_an_action_that_would_touch_what_it_must_avoid():
     """While a tool moves the target, the robot's own motion model screens each action: one
     predicted to bring the robot into contact with the target is not executed."""
-    from hadim_cli.learner.planner import ROBOT_POSITION, Binding
+    from hadim_cli.learner.planner import Binding
     from hadim_cli.learner.spaces import ACTION, SpaceReader
     from hadim_cli.world.layout import LayoutBounds, ObservationLayout, Property
 
@@ -170,7 +205,7 @@ def test_a_surface_relation_is_reached_at_the_current_pair_s_contact():
     bodies at hand: a reading of `relation_offset` towards the object puts the robot in
     contact with it (0.15 + 0.12 m from its centre), not at the learned centre distance of
     other objects."""
-    from hadim_cli.learner.planner import ROBOT_POSITION, Binding
+    from hadim_cli.learner.planner import Binding
     from hadim_cli.learner.spaces import SpaceReader
     from hadim_cli.world.layout import LayoutBounds, ObservationLayout
 

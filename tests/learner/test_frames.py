@@ -1,0 +1,163 @@
+"""Models in the frame of a relation: a push learned from some bearings holds at any other."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from hadim_cli.learner.frames import Frame, FramedModel, relation_frame
+from hadim_cli.learner.models import LocalLinearModel
+from hadim_cli.learner.spaces import ACTION, Role, RoleSpace
+from hadim_cli.world.layout import Property
+
+REACH = 0.3
+"""The toy relation's length at contact (as a surface relation reads it)."""
+
+
+def pushes(rng: np.random.Generator, n: int, bearings: tuple[float, float]):
+    """A toy push: relation r (bearing in `bearings`, length REACH + gap) and a heading; the
+    mover travels x; the target moves along r by the travel along r beyond the gap."""
+    ang = rng.uniform(*bearings, n)
+    u = np.c_[np.cos(ang), np.sin(ang)]
+    gap = rng.uniform(0.0, 0.1, n)
+    r = u * (REACH + gap)[:, None]
+    head = rng.uniform(-np.pi, np.pi, n)
+    heading = np.c_[np.cos(head), np.sin(head)]
+    x = rng.uniform(-0.15, 0.15, (n, 2))
+    along = np.einsum("ij,ij->i", x, u)
+    y = u * np.maximum(along - gap, 0.0)[:, None]
+    return x, np.c_[r, heading], y
+
+
+def fitted(cls, x, c, y):
+    if cls is FramedModel:
+        model = FramedModel(2, 2, [2, 2], Frame(0, True, True, (1,)))
+    else:
+        model = LocalLinearModel(2, 2, [2, 2])
+    model.add(x, c, y)
+    return model
+
+
+def test_a_push_learned_at_some_bearings_holds_at_others() -> None:
+    """Rows from bearings in [0, 90°]; queries at bearings in [180°, 270°]: the framed model
+    predicts and inverts them, the room-frame model does not."""
+    rng = np.random.default_rng(0)
+    x, c, y = pushes(rng, 600, (0.0, np.pi / 2))
+    xq, cq, yq = pushes(rng, 200, (np.pi, 1.5 * np.pi))
+    framed, room = fitted(FramedModel, x, c, y), fitted(LocalLinearModel, x, c, y)
+    err_framed = np.linalg.norm(framed.predict(xq, cq) - yq, axis=1).mean()
+    err_room = np.linalg.norm(room.predict(xq, cq) - yq, axis=1).mean()
+    assert err_framed < 0.01 < err_room
+    moved = np.flatnonzero(np.linalg.norm(yq, axis=1) > 0.03)
+    assert moved.size >= 20
+    misses = {}
+    for name, model in (("framed", framed), ("room", room)):
+        miss = []
+        for i in moved:
+            res = model.infer(yq[i], cq[i])
+            u = cq[i, :2] / np.linalg.norm(cq[i, :2])
+            gap = np.linalg.norm(cq[i, :2]) - REACH
+            reached = u * max(float(res.x @ u) - gap, 0.0)
+            miss.append(np.linalg.norm(reached - yq[i]) / np.linalg.norm(yq[i]))
+            np.testing.assert_allclose(res.y_predicted, model.predict(res.x, cq[i])[0],
+                                       atol=1e-9)
+        misses[name] = float(np.mean(miss))
+    assert misses["framed"] < 0.15 and misses["room"] > 0.5, misses
+
+
+def test_answers_are_in_room_coordinates() -> None:
+    """`data` gives back the rows as added; LOO and neighbours agree with a room-frame model
+    where the frame is the room's (every relation along the first axis)."""
+    rng = np.random.default_rng(1)
+    x, c, y = pushes(rng, 300, (0.0, 0.0))
+    framed = fitted(FramedModel, x, c, y)
+    for got, want in zip(framed.data(), (x, c, y), strict=True):
+        np.testing.assert_array_equal(got, want)
+    assert framed.n == 300 and framed.dc == 4 and framed.context_dims == (2, 2)
+    assert framed.scales().values.shape == (4,)
+    loo = framed.predict_loo(np.arange(20))
+    assert loo.shape == (20, 2) and np.linalg.norm(loo - y[:20], axis=1).mean() < 0.01
+    dist, nb = framed.inverse_neighbours(y[:3], c[:3], k=4)
+    assert nb.shape == (3, 4) and np.all(dist[:, 0] <= dist[:, -1])
+    _, nb = framed.inverse_neighbours(y[:3], k=4)  # no context: room outcomes
+    assert nb.shape == (3, 4)
+    moved = int(np.argmax(np.linalg.norm(y, axis=1)))
+    res = framed.infer(y[moved])  # no context: in the frames of the nearest outcomes' rows
+    assert res.error < 0.1 and res.context.shape == (4,)
+    _, nb = framed.forward_neighbours(x[:2], c[:2], k=5)
+    assert nb.shape == (2, 5)
+
+
+def test_rows_turned_along_an_outcome_or_to_a_relation() -> None:
+    """`turned(along=d)`: each moving row's outcome points along d, its relation keeps its
+    length and its angle to the outcome; `turned(at=c)`: each relation has c's bearing."""
+    rng = np.random.default_rng(3)
+    x, c, y = pushes(rng, 200, (-np.pi, np.pi))
+    model = fitted(FramedModel, x, c, y)
+    d = np.array([0.0, -2.0])
+    tx, tc, ty = model.turned(along=d)
+    moving = np.linalg.norm(y, axis=1) > 1e-9
+    np.testing.assert_allclose(ty[moving, 0], 0.0, atol=1e-12)
+    assert np.all(ty[moving, 1] < 0)
+    np.testing.assert_array_equal(ty[~moving], y[~moving])
+    for a, b in ((tc[:, :2], c[:, :2]), (tc[:, 2:], c[:, 2:]), (tx, x), (ty, y)):
+        np.testing.assert_allclose(np.linalg.norm(a, axis=1), np.linalg.norm(b, axis=1))
+    cross = lambda p, q: p[:, 0] * q[:, 1] - p[:, 1] * q[:, 0]  # noqa: E731
+    np.testing.assert_allclose(cross(tc[moving, :2], ty[moving]),
+                               cross(c[moving, :2], y[moving]), atol=1e-12)
+    at = np.array([0.0, 0.5, 1.0, 0.0])
+    _, tc, _ = model.turned(at=at)
+    np.testing.assert_allclose(tc[:, 0], 0.0, atol=1e-12)
+    np.testing.assert_allclose(tc[:, 1], np.linalg.norm(c[:, :2], axis=1))
+    with pytest.raises(ValueError, match="either"):
+        model.turned()
+
+
+def test_state_round_trip_is_identical() -> None:
+    rng = np.random.default_rng(2)
+    x, c, y = pushes(rng, 500, (-np.pi, np.pi))
+    model = fitted(FramedModel, x[:400], c[:400], y[:400])
+    model.add(x[400:], c[400:], y[400:])  # leaves rows in the inner model's buffers
+    copy = FramedModel.from_state(model.state(), **model.params())
+    xq, cq, yq = pushes(rng, 30, (-np.pi, np.pi))
+    np.testing.assert_array_equal(copy.predict(xq, cq), model.predict(xq, cq))
+    np.testing.assert_array_equal(copy.predict_loo(), model.predict_loo())
+    for i in range(5):
+        np.testing.assert_array_equal(copy.infer(yq[i], cq[i]).x, model.infer(yq[i], cq[i]).x)
+    for m in (copy, model):
+        for j in range(0, 30, 5):
+            m.add(xq[j:j + 5], cq[j:j + 5], yq[j:j + 5])
+    np.testing.assert_array_equal(copy.predict(x[:20], c[:20]), model.predict(x[:20], c[:20]))
+    with pytest.raises(ValueError, match="FramedModel"):
+        LocalLinearModel.from_state(model.state())
+    with pytest.raises(ValueError, match="no frame"):
+        FramedModel.from_state(LocalLinearModel(2, 2, [2, 2]).state())
+    with pytest.raises(ValueError, match="differs"):
+        FramedModel.from_state(model.state(), frame=Frame(1, True, True, (0,)))
+
+
+def test_bad_frames_are_refused() -> None:
+    with pytest.raises(ValueError, match="2-D context"):
+        FramedModel(2, 2, [1, 2], Frame(0, True, True))
+    with pytest.raises(ValueError, match="output must be 2-D"):
+        FramedModel(2, 1, [2], Frame(0, True, True))
+
+
+def test_which_relation_frames_an_affordance() -> None:
+    target_tool = RoleSpace(Role.TARGET, Property.POSITION, Role.TOOL)
+    target_robot = RoleSpace(Role.TARGET, Property.POSITION, Role.ROBOT)
+    heading = RoleSpace(Role.ROBOT, Property.HEADING)
+    radius = RoleSpace(Role.TARGET, Property.RADIUS)
+    target = RoleSpace(Role.TARGET, Property.POSITION)
+    tool = RoleSpace(Role.TOOL, Property.POSITION)
+    robot = RoleSpace(Role.ROBOT, Property.POSITION)
+    # Through a tool: the target-tool relation, even listed second.
+    assert relation_frame(tool, target, (target_robot, target_tool, radius)) == \
+        Frame(1, True, True, (0,))
+    # Without it, the target's other relation; the heading turns, the radius does not.
+    assert relation_frame(tool, target, (heading, radius, target_robot)) == \
+        Frame(2, True, True, (0,))
+    # A primitive action does not turn; moving the robot itself has no relation to frame it.
+    assert relation_frame(ACTION, target, (target_robot,)) == Frame(0, False, True, ())
+    assert relation_frame(ACTION, robot, (heading,)) is None
+    assert relation_frame(robot, target, (radius,)) is None
