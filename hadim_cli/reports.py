@@ -9,6 +9,7 @@ from rich.table import Table
 
 from hadim_cli.evaluation.runner import TaskResult
 from hadim_cli.evaluation.tasks import load_task
+from hadim_cli.learner.frames import FramedModel
 from hadim_cli.session import Session
 
 
@@ -29,9 +30,12 @@ def affordance_rows(session: Session) -> list[dict[str, Any]]:
 
             ok = aff.classifier.accepts(np.stack(feats))
             accepted = [e for e, a in zip(entities, ok, strict=True) if a]
+        frame = (aff.contexts[aff.model.frame.axis].name
+                 if isinstance(aff.model, FramedModel) else None)
         rows.append({
             "id": aff.id, "input": aff.input.name, "output": aff.output.name,
-            "context": [c.name for c in aff.contexts], "created_at": aff.created_at,
+            "context": [c.name for c in aff.contexts], "frame": frame,
+            "created_at": aff.created_at,
             "competence": round(float(aff.competence), 4), "data": len(aff.rows),
             "interest": round(float(aff.interest.interest), 4), "accepts": accepted,
         })
@@ -46,7 +50,8 @@ def render_h_table(console: Console, rows: list[dict[str, Any]], iteration: int)
     for r in rows:
         accepts = "—" if r["accepts"] is None else (", ".join(r["accepts"]) or "nothing")
         table.add_row(f"A{r['id']}", f"{r['input']} → {r['output']}",
-                      ", ".join(r["context"]) or "∅", str(r["created_at"]),
+                      ", ".join(f"{c} (frame)" if c == r["frame"] else c
+                                for c in r["context"]) or "∅", str(r["created_at"]),
                       f"{r['competence']:.3f}", str(r["data"]), accepts)
     console.print(table)
 

@@ -222,8 +222,10 @@ def test_runs_list_and_show(runner, trained):
 
 def test_affordances_now_at_and_timeline(runner, trained, tmp_path):
     now = json.loads(ok(runner, "affordances", "run-1", "--json", "--store", trained).stdout)
-    assert now and {"id", "input", "output", "context", "created_at", "competence", "data",
-                    "interest", "accepts"} <= now[0].keys()
+    assert now and {"id", "input", "output", "context", "frame", "created_at", "competence",
+                    "data", "interest", "accepts"} <= now[0].keys()
+    for aff in now:  # a frame is one of the affordance's own relation contexts
+        assert aff["frame"] is None or (aff["frame"] in aff["context"] and "-" in aff["frame"])
     events = json.loads(ok(runner, "affordances", "run-1", "--timeline", "--json",
                            "--store", trained).stdout)
     assert {"iteration", "id", "kind", "input", "output", "context", "competence",
