@@ -19,7 +19,7 @@ from typing import Protocol
 import numpy as np
 
 from hadim_cli.config import LearnerConfig
-from hadim_cli.learner.affordance import CONTACT_MARGIN, Affordance, typical_step
+from hadim_cli.learner.affordance import Affordance, typical_step
 from hadim_cli.learner.competence import split_zero
 from hadim_cli.learner.frames import seen
 from hadim_cli.learner.hierarchy import Hierarchy
@@ -34,14 +34,15 @@ CONTEXT_SUPPORT = 0.1
 AGREEMENT = 0.4
 """Rows whose relation is within this (in their model's scale) of the densest one's agree with
 it, and the needed relation is fitted on them (`Planner._relation_at`)."""
-PLACE_SUPPORT = 0.3
+PLACE_SUPPORT = 0.1
 """A relation further than this from the needed one (in spreads of that relation over the rows
-with an effect, `_spreads`: about 0.1 m for a push) is not the same place."""
+with an effect, `_spreads`: ~0.34 m for a push, so ~3 cm) is not the same place."""
 APPROACH_MARGIN = 0.06
 MAX_DETOURS = 3
-REALIGN = 0.6
+REALIGN = 0.45
 """Re-place (reach the needed relation) when the current one has drifted further than this
-many spreads from it, even if the step still looks supported: a pushed object slides off."""
+many spreads from it (~15 cm for a push), even if the step still looks supported: a pushed
+object slides off, and a tool pushed 10 cm off its centre goes 30° astray."""
 SUPPORT_NEIGHBOURS = 3
 """Forward neighbours looked at to decide whether a context is supported by data."""
 POSE_MATCH = 0.3
@@ -49,8 +50,13 @@ POSE_MATCH = 0.3
 SMALL_CORRECTION = 0.5
 """A sub-goal's remaining step shorter than this fraction of a typical step is not worth
 re-placing for."""
-SUBGOAL_TOLERANCE = 0.15
+SUBGOAL_TOLERANCE = 0.3
 """A sub-goal counts as reached within this fraction of its affordance's typical step."""
+AVOID_MARGIN = 0.05
+"""Gap (m) the robot keeps from an entity it must not touch (the target while a tool moves
+it): the contact margin (0.02 m) plus about the error of the robot's motion model over one
+action (0.03 m held out): with 0.02 m alone, 1 point in 30 of `push-with-tool` failed by a
+touch the model did not foresee."""
 
 
 class Actuator(Protocol):
@@ -363,8 +369,9 @@ class Planner:
         return self.reach(sub, sub_b, goal, actuator, sub_budget, depth + 1).actions
 
     def foresees_contact(self, b: Binding, action: np.ndarray, obs: np.ndarray) -> bool:
-        """Whether the robot's own motion model predicts that `action` brings the robot into
-        contact with the entity `b` says to avoid (half-way or at the end of the action)."""
+        """Whether the robot's own motion model predicts that `action` brings the robot within
+        `AVOID_MARGIN` of the entity `b` says to avoid (half-way or at the end of the
+        action)."""
         if b.avoid < 0:
             return False
         movers = [a for a in self.h.controllers(ROBOT_POSITION) if a.input is ACTION]
@@ -376,7 +383,7 @@ class Planner:
         robot = self.reader.entity_position(obs, 0)
         other = self.reader.entity_position(obs, b.avoid)
         reach = (self.reader.entity_radius(obs, 0) + self.reader.entity_radius(obs, b.avoid)
-                 + CONTACT_MARGIN)
+                 + AVOID_MARGIN)
         return any(np.linalg.norm(robot + f * shift - other) <= reach for f in (0.5, 1.0))
 
     # ------------------------------------------------------------------ reaching contexts

@@ -135,6 +135,11 @@ def test_the_planner_refuses_an_action_that_would_touch_what_it_must_avoid():
     assert planner.foresees_contact(Binding(target=2, avoid=1), towards, obs)
     assert not planner.foresees_contact(Binding(target=2, avoid=1), away, obs)
     assert not planner.foresees_contact(Binding(target=1), towards, obs)  # nothing to avoid
+    # Ending 0.04 m short of touching is still too close: the motion model errs by ~0.03 m.
+    obs[layout.space("obj1", Property.POSITION).slice] = [0.15 + 0.27 + 0.04, 0.0]
+    assert planner.foresees_contact(Binding(target=2, avoid=1), towards, obs)
+    obs[layout.space("obj1", Property.POSITION).slice] = [0.15 + 0.27 + 0.07, 0.0]
+    assert not planner.foresees_contact(Binding(target=2, avoid=1), towards, obs)
 
 
 def _drive_like_model(rng: np.random.Generator) -> LocalLinearModel:
