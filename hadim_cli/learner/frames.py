@@ -187,8 +187,10 @@ class FramedModel:
         if c is None:
             raise ValueError(f"this model needs a context of {self.dc} columns")
         c = self._matrix(c, self.dc, "c")
-        x = self._matrix(x, self.dx, "x", c.shape[0])
-        y = self._matrix(y, self.dy, "y", c.shape[0])
+        x, y = self._matrix(x, self.dx, "x"), self._matrix(y, self.dy, "y")
+        if not x.shape[0] == c.shape[0] == y.shape[0]:
+            raise ValueError(f"x, c and y must have as many rows, got {x.shape[0]}, "
+                             f"{c.shape[0]}, {y.shape[0]}")
         fx, fc, u = self._framed(x, c)
         self.inner.add(fx, fc, self._vector(y, u, self.frame.y))
         self._rows = np.concatenate([self._rows, np.concatenate([x, c, y], axis=1)])

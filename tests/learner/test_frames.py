@@ -141,6 +141,12 @@ def test_bad_frames_are_refused() -> None:
         FramedModel(2, 2, [1, 2], Frame(0, True, True))
     with pytest.raises(ValueError, match="output must be 2-D"):
         FramedModel(2, 1, [2], Frame(0, True, True))
+    model = FramedModel(2, 2, [2], Frame(0, True, True))
+    with pytest.raises(ValueError, match="as many rows"):
+        model.add(np.zeros((1, 2)), np.ones((3, 2)), np.zeros((3, 2)))
+    with pytest.raises(ValueError, match="needs a context"):
+        model.add(np.zeros((1, 2)), None, np.zeros((1, 2)))
+    assert model.n == 0
 
 
 def test_which_relation_frames_an_affordance() -> None:
