@@ -393,7 +393,8 @@ LEGACY_DEFAULTS: dict[str, dict[str, Any]] = {
     "learner": {"surface_relations": False, "relation_frames": False},
 }
 """Keys added after runs were first stored, with the value that reproduces what a run stored
-without them did (its defaults then): a stored run resumes and evaluates as it was trained."""
+without them did (its defaults then): a stored run restores the learner it trained (the
+planner's constants are code, and follow the installed version)."""
 
 
 def stored_config(values: Mapping[str, Any]) -> Config:
