@@ -23,7 +23,7 @@ from typing import Any
 
 import numpy as np
 
-from hadim_cli.learner.models import InverseResult, LocalLinearModel, SpaceScale
+from hadim_cli.learner.models import InverseResult, LocalLinearModel, SpaceScale, as_rows
 from hadim_cli.learner.spaces import ACTION, RoleSpace
 from hadim_cli.world.layout import Property
 
@@ -117,7 +117,8 @@ class FramedModel:
         self.inner = LocalLinearModel(dx, dy, inner_dims, **params)
         self._dims = (self.dx, *self.context_dims, self.dy)
         self._centred = (False, *([True] * len(self.context_dims)), False)
-        self._rows = np.empty((0, self.dx + self.dc + self.dy))
+        self._room = np.empty((64, self.dx + self.dc + self.dy))
+        """Rows [0, n) in room coordinates (grown by doubling, like the inner model's)."""
         self._scale_cache: tuple[int, SpaceScale] | None = None
 
     # ------------------------------------------------------------------ frames
@@ -153,27 +154,14 @@ class FramedModel:
                 ) -> tuple[np.ndarray | None, np.ndarray, np.ndarray]:
         """(x, c) read in the frames of the contexts `c` (one context or one per x), and the
         frames' first axes; a single context serves every x."""
-        c = self._matrix(c, self.dc, "c")
+        c = as_rows(c, self.dc, "c")
         if x is not None:
-            x = self._matrix(x, self.dx, "x")
-            c = self._matrix(c, self.dc, "c", x.shape[0])
-            x = self._matrix(x, self.dx, "x", c.shape[0])
+            x = as_rows(x, self.dx, "x")
+            q = max(x.shape[0], c.shape[0])
+            x, c = as_rows(x, self.dx, "x", q), as_rows(c, self.dc, "c", q)
         u, length = self._bearing(c)
         fx = None if x is None else self._vector(x, u, self.frame.x)
         return fx, self._context(c, u, length), u
-
-    @staticmethod
-    def _matrix(a: np.ndarray, d: int, name: str, q: int | None = None) -> np.ndarray:
-        a = np.asarray(a, dtype=np.float64)
-        if a.ndim == 1:
-            a = a[None]
-        if a.ndim != 2 or a.shape[1] != d:
-            raise ValueError(f"{name} must have {d} columns, got shape {a.shape}")
-        if q is not None and a.shape[0] != q:
-            if a.shape[0] == 1:
-                return np.repeat(a, q, axis=0)
-            raise ValueError(f"expected {q} rows of {name}, got {a.shape[0]}")
-        return a
 
     # ------------------------------------------------------------------ data
     @property
@@ -186,24 +174,30 @@ class FramedModel:
     def add(self, x: np.ndarray, c: np.ndarray | None, y: np.ndarray) -> None:
         if c is None:
             raise ValueError(f"this model needs a context of {self.dc} columns")
-        c = self._matrix(c, self.dc, "c")
-        x, y = self._matrix(x, self.dx, "x"), self._matrix(y, self.dy, "y")
+        c = as_rows(c, self.dc, "c")
+        x, y = as_rows(x, self.dx, "x"), as_rows(y, self.dy, "y")
         if not x.shape[0] == c.shape[0] == y.shape[0]:
             raise ValueError(f"x, c and y must have as many rows, got {x.shape[0]}, "
                              f"{c.shape[0]}, {y.shape[0]}")
         fx, fc, u = self._framed(x, c)
+        n = self.n
         self.inner.add(fx, fc, self._vector(y, u, self.frame.y))
-        self._rows = np.concatenate([self._rows, np.concatenate([x, c, y], axis=1)])
+        if self.n > self._room.shape[0]:
+            grown = np.empty((max(2 * self._room.shape[0], self.n), self._room.shape[1]))
+            grown[:n] = self._room[:n]
+            self._room = grown
+        self._room[n:self.n] = np.concatenate([x, c, y], axis=1)
 
     def data(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """Views (X, C, Y) of the stored rows in room coordinates."""
-        d = self._rows
+        d = self._room[:self.n]
         return d[:, :self.dx], d[:, self.dx:self.dx + self.dc], d[:, self.dx + self.dc:]
 
     def scales(self) -> SpaceScale:
         """Scales of the spaces (x, each context, y) over the rows in room coordinates."""
         if self._scale_cache is None or self._scale_cache[0] != self.n:
-            self._scale_cache = (self.n, SpaceScale.fit(self._rows, self._dims, self._centred))
+            self._scale_cache = (self.n, SpaceScale.fit(self._room[:self.n], self._dims,
+                                                        self._centred))
         return self._scale_cache[1]
 
     def turned(self, *, along: np.ndarray | None = None, at: np.ndarray | None = None
@@ -222,7 +216,7 @@ class FramedModel:
             want, have = np.asarray(along, dtype=float), y
         else:
             s = self._starts[self.frame.axis]
-            want, have = self._matrix(at, self.dc, "c")[0, s:s + 2], c[:, s:s + 2]
+            want, have = as_rows(at, self.dc, "c")[0, s:s + 2], c[:, s:s + 2]
         norm_want = float(np.linalg.norm(want))
         norm_have = np.linalg.norm(have, axis=1)
         ok = norm_have > _ZERO_LENGTH
@@ -246,18 +240,18 @@ class FramedModel:
 
     def predict_loo(self, indices: np.ndarray | Sequence[int] | None = None) -> np.ndarray:
         idx = np.arange(self.n) if indices is None else np.asarray(indices, dtype=np.int64)
-        u, _ = self._bearing(self._rows[idx, self.dx:self.dx + self.dc])
+        u, _ = self._bearing(self._room[idx, self.dx:self.dx + self.dc])
         return self._vector(self.inner.predict_loo(idx), u, self.frame.y, back=True)
 
     def infer(self, y_goal: np.ndarray, c: np.ndarray | None = None, *,
               n_candidates: int | None = None) -> InverseResult:
         """Inverse model in the frame of `c`; without a context, in that of each of the stored
         rows whose outcomes are nearest the goal, the best answer kept."""
-        goal = self._matrix(y_goal, self.dy, "y_goal")
+        goal = as_rows(y_goal, self.dy, "y_goal")
         if c is None:
             _, nb = self.inverse_neighbours(goal, k=min(n_candidates or self.inner.k_inverse,
                                                         self.n))
-            answers = [self.infer(goal, self._rows[i, self.dx:self.dx + self.dc],
+            answers = [self.infer(goal, self._room[i, self.dx:self.dx + self.dc],
                                   n_candidates=n_candidates) for i in nb[0]]
             return min(answers, key=lambda a: a.error)
         _, fc, u = self._framed(None, c)
@@ -266,7 +260,7 @@ class FramedModel:
         return InverseResult(self._vector(got.x[None], u, self.frame.x, back=True)[0],
                              self._vector(got.y_predicted[None], u, self.frame.y, back=True)[0],
                              got.error,
-                             self._rows[got.neighbour_index, self.dx:self.dx + self.dc].copy(),
+                             self._room[got.neighbour_index, self.dx:self.dx + self.dc].copy(),
                              got.neighbour_index)
 
     def forward_neighbours(self, x: np.ndarray, c: np.ndarray | None = None,
@@ -278,7 +272,7 @@ class FramedModel:
                            k: int | None = None) -> tuple[np.ndarray, np.ndarray]:
         """Nearest rows in normalised (y, c) read in the frame of `c`; without a context, in
         room outcomes alone (a bearing is only known with a context)."""
-        y = self._matrix(y, self.dy, "y")
+        y = as_rows(y, self.dy, "y")
         k = min(k or self.inner.k_inverse, self.n)
         if c is not None:
             _, fc, u = self._framed(None, c)

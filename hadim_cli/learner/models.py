@@ -529,12 +529,7 @@ class LocalLinearModel:
 
     @staticmethod
     def _rows(a: np.ndarray, d: int, name: str) -> np.ndarray:
-        a = np.asarray(a, dtype=np.float64)
-        if a.ndim == 1:
-            a = a[None]
-        if a.ndim != 2 or a.shape[1] != d:
-            raise ValueError(f"{name} must have {d} columns, got shape {a.shape}")
-        return a
+        return as_rows(a, d, name)
 
     def _contexts(self, c: np.ndarray | None, q: int) -> np.ndarray:
         if self.dc == 0:
@@ -543,12 +538,22 @@ class LocalLinearModel:
             return np.empty((q, 0))
         if c is None:
             raise ValueError(f"this model needs a context of {self.dc} columns")
-        c = self._rows(c, self.dc, "c")
-        if c.shape[0] == 1 and q > 1:
-            c = np.repeat(c, q, axis=0)
-        if c.shape[0] != q:
-            raise ValueError(f"expected {q} context rows, got {c.shape[0]}")
-        return c
+        return as_rows(c, self.dc, "c", q)
+
+
+def as_rows(a: np.ndarray, d: int, name: str, q: int | None = None) -> np.ndarray:
+    """`a` as a float matrix of `d` columns (a vector is one row); with `q`, exactly `q` rows,
+    a single row repeated. Raises ValueError naming `name` otherwise."""
+    a = np.asarray(a, dtype=np.float64)
+    if a.ndim == 1:
+        a = a[None]
+    if a.ndim != 2 or a.shape[1] != d:
+        raise ValueError(f"{name} must have {d} columns, got shape {a.shape}")
+    if q is not None and a.shape[0] != q:
+        if a.shape[0] != 1:
+            raise ValueError(f"expected {q} rows of {name}, got {a.shape[0]}")
+        a = np.repeat(a, q, axis=0)
+    return a
 
 
 def _brute_knn(q: np.ndarray, pts: np.ndarray, k: int) -> tuple[np.ndarray, np.ndarray]:
