@@ -26,6 +26,11 @@ class HadimGroup(TyperGroup):
         except HadimError as exc:
             typer.echo(f"error: {exc}", err=True)
             ctx.exit(exc.exit_code)
+        except typer.BadParameter as exc:
+            # An impossible value (`--iterations -5`, `--seed x`): one line, like a bad config
+            # value; other usage errors (an unknown option) still print the usage first.
+            typer.echo(f"error: {exc.format_message()}", err=True)
+            ctx.exit(2)
         except StoreError as exc:
             # The store is a separate package; its errors are a user's (bad file, unknown run).
             typer.echo(f"error: {exc}", err=True)

@@ -132,6 +132,8 @@ def test_a_run_without_evaluations_has_no_plot(runner, tmp_path):
     ("--set", "nonsense"),
     ("--config", "missing.toml"),
     ("--eval-every", 30),
+    ("--iterations", -5),  # an impossible option value: one line too, not a usage box
+    ("--seed", "x"),
 ], ids=lambda a: " ".join(map(str, a)))
 def test_train_with_a_bad_config_creates_nothing(runner, tmp_path, trained, args):
     fresh = tmp_path / "fresh.sqlite"
