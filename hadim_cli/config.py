@@ -243,6 +243,82 @@ class LearnerConfig:
 
 
 @dataclass(frozen=True)
+class PlannerConfig:
+    """How goals become primitive actions through the chain of learned affordances (paper
+    §4.3, docs/algorithm.md "Planner"). Stored with each run; a run stored before this section
+    existed is planned with these defaults (the installed planner)."""
+
+    max_depth: int = 4
+    """Deepest chain of affordances one goal is decomposed through."""
+    step_quantile: float = 0.9
+    """Sub-goals are cut to this quantile of an affordance's non-null outcome norms."""
+    context_support: float = 0.1
+    """Relations further apart than this (in their model's scale) vote apart when choosing the
+    context an outcome is usually produced from."""
+    agreement: float = 0.4
+    """Rows whose relation is within this (in their model's scale) of the densest one's agree
+    with it; the needed relation is fitted on them."""
+    place_support: float = 0.1
+    """A relation further than this many spreads (of that relation over the rows with an
+    effect) from the needed one is not the same place."""
+    realign: float = 0.45
+    """With `replace_by_cost` off: re-place when the current relation has drifted further than
+    this many spreads from the needed one."""
+    support_neighbours: int = 3
+    """Forward neighbours looked at to decide whether a context is supported by data."""
+    pose_match: float = 0.3
+    """Rows whose outcome is within this fraction of a step's length count as producing it."""
+    small_correction: float = 0.5
+    """A sub-goal's remainder shorter than this fraction of a typical step is not worth
+    re-placing for."""
+    subgoal_tolerance: float = 0.3
+    """A sub-goal counts as reached within this fraction of its affordance's typical step."""
+    approach_margin: float = 0.06
+    """Clearance (m) kept round an object when the route to a place goes round it."""
+    max_detours: int = 3
+    """Objects a route to a place goes round at most."""
+    avoid_margin: float = 0.05
+    """Gap (m) the robot keeps from an entity it must not touch (the target while a tool
+    moves it): the contact margin (0.02 m) plus about the held-out error of the robot's
+    motion model over one action."""
+    navigation: bool = False
+    """Reach the robot's places by a search over its learned motion (forward models of
+    action → robot.position and action → robot.heading), arriving facing the way the next
+    step moves; off: through the inverse model of action → robot.position, turning first."""
+    navigation_grid: int = 9
+    """Wheel commands per wheel (an n × n grid over [-1, 1]²) the navigation search scores."""
+    heading_tolerance: float = 0.35
+    """A place is reached facing the wanted way within this angle (rad); either way along it
+    counts (the robot drives backwards as well as forwards)."""
+    approach_distance: float = 0.08
+    """The last stretch (m) before a place is driven straight along the wanted heading."""
+    closed_loop: bool = False
+    """Decide every primitive action from the top of the chain down, each level pushing or
+    placing (`learner/control.py`); off: nested loops, each sub-goal of a lower affordance
+    pursued for up to `learner.subgoal_budget` actions."""
+    replace_by_cost: bool = False
+    """Re-place only when the trip (its estimated actions) plus pushing from the new place
+    costs less than pushing on from here at the rate the forward model predicts; off: the
+    fixed `realign` / `place_support` tolerances decide."""
+
+    def validate(self) -> None:
+        for name in ("max_depth", "support_neighbours", "max_detours", "navigation_grid"):
+            value = getattr(self, name)
+            _check(value >= 1, f"planner.{name}", "must be >= 1", value)
+        _check(self.navigation_grid >= 3, "planner.navigation_grid", "must be >= 3",
+               self.navigation_grid)
+        _check(0.0 < self.step_quantile <= 1.0, "planner.step_quantile", "must be in (0, 1]",
+               self.step_quantile)
+        for name in ("context_support", "agreement", "place_support", "realign", "pose_match",
+                     "small_correction", "subgoal_tolerance", "heading_tolerance"):
+            value = getattr(self, name)
+            _check(value > 0, f"planner.{name}", "must be > 0", value)
+        for name in ("approach_margin", "avoid_margin", "approach_distance"):
+            value = getattr(self, name)
+            _check(value >= 0, f"planner.{name}", "must be >= 0", value)
+
+
+@dataclass(frozen=True)
 class EvaluationConfig:
     """Periodic evaluation during training (paper §5.1, Fig. 2)."""
 
@@ -263,6 +339,8 @@ class Config:
     """The simulated room."""
     learner: LearnerConfig = field(default_factory=LearnerConfig)
     """The affordance learner."""
+    planner: PlannerConfig = field(default_factory=PlannerConfig)
+    """The planner that chains affordances to reach goals."""
     evaluation: EvaluationConfig = field(default_factory=EvaluationConfig)
     """Periodic evaluation."""
 

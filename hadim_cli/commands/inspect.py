@@ -135,11 +135,18 @@ def eval_cmd(
     task: Annotated[str | None, typer.Option("--task", help="A task of configs/tasks/.")] = None,
     points: Annotated[Path | None, typer.Option("--points", help="Your own task file.")] = None,
     at: AtOption = None,
+    animate: Annotated[Path | None, typer.Option(
+        "--animate", help="Also draw every point's attempt, action by action, to this GIF.")
+    ] = None,
+    exact: Annotated[list[str] | None, typer.Option(
+        "--exact", help="Replace a level of the chain by an exact one (diagnostic, not "
+        "stored): navigation.")] = None,
     store: StoreOption = None,
     as_json: JsonOption = False,
 ) -> None:
     """Evaluate a run's H on a task's target points and store the score."""
     from hadim_cli import runs
+    from hadim_cli.evaluation.exact import exact_levels
     from hadim_cli.evaluation.runner import evaluate
     from hadim_cli.evaluation.tasks import load_task, load_task_file
     from hadim_cli.reports import render_eval
@@ -152,15 +159,27 @@ def eval_cmd(
         if at is not None and at > record.iterations:
             raise HadimError(f"--at {at} is beyond run {run}'s {record.iterations} iterations")
         session = runs.restore_session(st, record, at)
-        result = evaluate(session.learner, session.config.world, chosen)
-        st.add_evaluation(run, session.iteration, chosen.name, result.score,
-                          result.to_dict()["points"])
+        with exact_levels(session.learner, session.config.world, tuple(exact or ())):
+            result = evaluate(session.learner, session.config.world, chosen,
+                              record=animate is not None)
+        if not exact:
+            # A score with an exact level is a diagnostic, not the learner's.
+            st.add_evaluation(run, session.iteration, chosen.name, result.score,
+                              result.to_dict()["points"])
+    if animate is not None:
+        from hadim_cli.evaluation.animate import animate as draw
+
+        draw(result.recordings, session.world.layout, animate)
     if as_json:
         payload = result.to_dict()
         payload["iteration"] = session.iteration
+        if animate is not None:
+            payload["animation"] = str(animate)
         typer.echo(json.dumps(payload, indent=2))
     else:
         render_eval(_console(), result, session.iteration)
+        if animate is not None:
+            typer.echo(f"wrote {animate}")
 
 
 @app.command()

@@ -21,3 +21,13 @@ def task_score(errors: Sequence[float]) -> float:
     if len(errors) == 0:
         raise ValueError("a task needs at least one point")
     return 1.0 - float(np.mean(errors))
+
+
+def heading_error(start: float, final: float, target: float) -> float:
+    """min(1, final angle to the target heading / initial one), angles in radians."""
+    def gap(a: float) -> float:
+        return abs((target - a + np.pi) % (2 * np.pi) - np.pi)
+    initial, final_gap = gap(start), gap(final)
+    if initial <= 1e-6:
+        return 0.0 if final_gap <= 0.05 else min(1.0, final_gap / 0.05)
+    return min(1.0, final_gap / initial)

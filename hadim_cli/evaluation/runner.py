@@ -12,11 +12,11 @@ import numpy as np
 
 from hadim_cli.config import WorldConfig
 from hadim_cli.errors import HadimError
-from hadim_cli.evaluation.metric import point_error, task_score
+from hadim_cli.evaluation.metric import heading_error, point_error, task_score
 from hadim_cli.evaluation.tasks import Task
 from hadim_cli.learner.affordance import Affordance
 from hadim_cli.learner.explorer import Learner
-from hadim_cli.learner.planner import Binding
+from hadim_cli.learner.planner import Binding, Planner
 from hadim_cli.learner.spaces import Property, Role, RoleSpace
 from hadim_cli.world.world import World
 
@@ -30,6 +30,37 @@ class PointResult:
     actions: int
     affordance_id: int
     contact_failed: bool = False
+    robot_path: float = 0.0
+    """Distance (m) the robot drove during the point's attempt."""
+    trips: int = 0
+    """Trips the planner took to a place (behind an object, a tool behind the target)."""
+    line_deviation: float = 0.0
+    """Largest distance (m) of the driven entity from the straight line start → point: how
+    far off the line it was pushed (or drove)."""
+
+
+@dataclass(frozen=True)
+class Step:
+    """What the planner pursued when it chose one primitive action (outermost first)."""
+
+    labels: tuple[str, ...]
+    goals: tuple[tuple[float, ...], ...]
+
+
+@dataclass(frozen=True)
+class Recording:
+    """One point's attempt, action by action: for drawing it (`evaluation.animate`)."""
+
+    task: str
+    point: tuple[float, float]
+    observations: np.ndarray
+    """(actions + 1, observation size): before the first action, then after each."""
+    steps: tuple[Step, ...]
+    entity: int
+    """The entity the task drives (0: the robot)."""
+    target: int
+    tool: int
+    contact_failed: bool
 
 
 @dataclass(frozen=True)
@@ -37,6 +68,8 @@ class TaskResult:
     task: str
     score: float
     points: tuple[PointResult, ...]
+    recordings: tuple[Recording, ...] = ()
+    """Each point's attempt, when `evaluate(..., record=True)`."""
 
     def to_dict(self) -> dict:
         return {"task": self.task, "score": self.score, "points": [asdict(p) for p in self.points]}
@@ -45,13 +78,25 @@ class TaskResult:
 class EvalActuator:
     """Steps the evaluation world within a budget, watching robot–target contacts."""
 
-    def __init__(self, world: World, obs: np.ndarray, budget: int, watch: str | None):
+    def __init__(self, world: World, obs: np.ndarray, budget: int, watch: str | None,
+                 planner: Planner | None = None):
         self.world = world
         self._obs = obs
         self.budget = budget
         self.used = 0
         self.watch = tuple(sorted(("robot", watch))) if watch else None
         self.touched = False
+        self.planner = planner
+        """When given, each action is recorded with what `planner` pursued."""
+        self.observations = [obs.copy()]
+        self.steps: list[Step] = []
+        self.path = 0.0
+        self.line: tuple[int, np.ndarray, np.ndarray] | None = None
+        self.deviation = 0.0
+
+    def follow(self, entity: int, start: np.ndarray, point: np.ndarray) -> None:
+        """Measure `entity`'s largest distance from the segment start → point."""
+        self.line = (entity, np.asarray(start, float), np.asarray(point, float))
 
     @property
     def obs(self) -> np.ndarray:
@@ -62,11 +107,44 @@ class EvalActuator:
         return self.used >= self.budget or self.touched
 
     def act(self, action: np.ndarray) -> np.ndarray:
+        before = np.asarray(self.world.robot_pose()[:2])
         self._obs = self.world.step(action)
         self.used += 1
+        self.path += float(np.linalg.norm(np.asarray(self.world.robot_pose()[:2]) - before))
+        if self.line is not None:
+            entity, a, b = self.line
+            pos = self._obs[self.world.layout.space(self.world.layout.entities[entity],
+                                                    Property.POSITION).slice]
+            self.deviation = max(self.deviation, segment_distance(pos, a, b))
+        if self.planner is not None:
+            stack = self.planner.stack
+            self.steps.append(Step(tuple(p.label for p in stack),
+                                   tuple(tuple(map(float, p.goal)) for p in stack)))
+            self.observations.append(self._obs.copy())
         if self.watch is not None and self.watch in self.world.last_contacts:
             self.touched = True
         return self._obs
+
+
+def _heading(world: World) -> float:
+    return world.robot_pose()[2]
+
+
+def _turn_to(learner: Learner, heading: float, actuator: EvalActuator, budget: int) -> None:
+    """Face `heading` (rad) through the most competent `action → robot.heading`."""
+    space = RoleSpace(Role.ROBOT, Property.HEADING)
+    turners = [a for a in learner.hierarchy.with_output(space) if a.input.name == "action"]
+    if turners and budget > 0:
+        turner = max(turners, key=lambda a: a.competence)
+        goal = np.array([np.cos(heading), np.sin(heading)])
+        learner.planner.reach(turner, Binding(), goal, actuator, budget)
+
+
+def segment_distance(p: np.ndarray, a: np.ndarray, b: np.ndarray) -> float:
+    """Distance from point `p` to the segment a → b."""
+    ab = b - a
+    t = float(np.clip((p - a) @ ab / max(float(ab @ ab), 1e-12), 0.0, 1.0))
+    return float(np.linalg.norm(p - (a + t * ab)))
 
 
 def choose_affordance(learner: Learner, task: Task) -> Affordance | None:
@@ -95,28 +173,44 @@ def _entity_index(world: World, name: str | None, task: Task) -> int:
         raise HadimError(f"task {task.name}: no entity '{name}' in its scene") from None
 
 
-def evaluate(learner: Learner, world_config: WorldConfig, task: Task) -> TaskResult:
-    """Attempt every point of `task`; score = 1 − mean(min(1, final / initial distance))."""
+def evaluate(learner: Learner, world_config: WorldConfig, task: Task,
+             record: bool = False) -> TaskResult:
+    """Attempt every point of `task`; score = 1 − mean(min(1, final / initial distance)).
+    `record`: also keep each point's observations and what the planner pursued."""
     n_objects = world_config.n_green + world_config.n_red
     if len(task.scene.objects) != n_objects:
         raise HadimError(f"task {task.name} has {len(task.scene.objects)} objects in its scene; "
                          f"this run's world has {n_objects}")
     world = World(world_config)
     aff = choose_affordance(learner, task)
-    results = []
-    for point in task.points:
+    results, recordings = [], []
+    for i, point in enumerate(task.points):
         obs = world.reset(scene=task.scene)
         target = _entity_index(world, task.target, task)
         tool = _entity_index(world, task.tool, task)
         entity = 0 if task.entity == "robot" else target
         start = learner.reader.entity_position(obs, entity).copy()
-        actuator = EvalActuator(world, obs, task.budget, task.target if task.tool else None)
+        actuator = EvalActuator(world, obs, task.budget, task.target if task.tool else None,
+                                learner.planner if record else None)
+        actuator.follow(entity, start, np.asarray(point))
+        start_heading = _heading(world)
         if aff is not None:
             binding = Binding(target=target, tool=tool) if aff.has_target else Binding()
             learner.planner.reach(aff, binding, np.asarray(point), actuator, task.budget)
+        trips = learner.planner.trips if aff is not None else 0
         final = learner.reader.entity_position(actuator.obs, entity).copy()
         error = 1.0 if actuator.touched else point_error(start, final, point)
+        if task.headings is not None:
+            want = task.headings[i]
+            _turn_to(learner, want, actuator, task.budget - actuator.used)
+            error = (error + heading_error(start_heading, _heading(world), want)) / 2
         results.append(PointResult(tuple(point), tuple(map(float, start)),
                                    tuple(map(float, final)), error, actuator.used,
-                                   -1 if aff is None else aff.id, actuator.touched))
-    return TaskResult(task.name, task_score([r.error for r in results]), tuple(results))
+                                   -1 if aff is None else aff.id, actuator.touched,
+                                   actuator.path, trips, actuator.deviation))
+        if record:
+            recordings.append(Recording(task.name, tuple(map(float, point)),
+                                        np.stack(actuator.observations), tuple(actuator.steps),
+                                        entity, target, tool, actuator.touched))
+    return TaskResult(task.name, task_score([r.error for r in results]), tuple(results),
+                      tuple(recordings))

@@ -32,6 +32,9 @@ class Task:
     target: str | None = None
     tool: str | None = None
     """With a tool, any robot–target contact during a point's attempt fails the point."""
+    headings: tuple[float, ...] | None = None
+    """With property 'pose' (robot only): the heading (rad) to face at each point, reached
+    after the position; the point's error is the mean of the position's and the heading's."""
     affordance_input: str | None = None
     """The input space (e.g. `robot.position`) of the affordance the task evaluates, as the
     paper evaluates its A0, A1, A2 by name; None, or no such affordance in H: the most
@@ -100,9 +103,22 @@ def parse_task(values: Mapping[str, Any], where: str) -> Task:
     entity = _need(values, "entity", where)
     if entity not in ("robot", "target"):
         raise HadimError(f"task file {where}: entity must be 'robot' or 'target', got {entity!r}")
-    if _need(values, "property", where) != "position":
-        raise HadimError(f"task file {where}: only property = 'position' is supported")
-    points = tuple(_pair(p, "points", where) for p in _need(values, "points", where))
+    prop = _need(values, "property", where)
+    if prop not in ("position", "pose") or (prop == "pose" and entity != "robot"):
+        raise HadimError(f"task file {where}: property must be 'position', or 'pose' for the "
+                         f"robot, got {prop!r}")
+    raw_points = _need(values, "points", where)
+    if not isinstance(raw_points, list):
+        raise HadimError(f"task file {where}: 'points' must be a list")
+    headings = None
+    if prop == "pose":
+        for p in raw_points:
+            if not isinstance(p, list | tuple) or len(p) != 3:
+                raise HadimError(f"task file {where}: a pose point is [x, y, heading in "
+                                 f"degrees], got {p!r}")
+        headings = tuple(math.radians(_number(p[2], "points", where)) for p in raw_points)
+        raw_points = [p[:2] for p in raw_points]
+    points = tuple(_pair(p, "points", where) for p in raw_points)
     if not points:
         raise HadimError(f"task file {where}: 'points' is empty")
     budget = _need(values, "budget", where)
@@ -118,7 +134,7 @@ def parse_task(values: Mapping[str, Any], where: str) -> Task:
     if entity == "target" and not target:
         raise HadimError(f"task file {where}: entity 'target' needs target = \"objN\"")
     return Task(str(values.get("name", Path(where).stem)), str(values.get("description", "")),
-                entity, "position", points, budget, scene, target, tool,
+                entity, prop, points, budget, scene, target, tool, headings,
                 _affordance_input(values.get("affordance_input"), where))
 
 

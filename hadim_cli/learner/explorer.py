@@ -14,7 +14,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from hadim_cli.config import LearnerConfig
+from hadim_cli.config import LearnerConfig, PlannerConfig
 from hadim_cli.learner.adaptation import Adaptation
 from hadim_cli.learner.affordance import Affordance, Fitter, output_bounds
 from hadim_cli.learner.dataset import Dataset
@@ -47,7 +47,8 @@ class LearningEpisode:
 class Learner:
     """D, H and the machinery acting on them; knows nothing of the world but its layout."""
 
-    def __init__(self, config: LearnerConfig, layout: ObservationLayout):
+    def __init__(self, config: LearnerConfig, layout: ObservationLayout,
+                 planner: PlannerConfig | None = None):
         self.config = config
         self.layout = layout
         self.reader = SpaceReader(
@@ -56,7 +57,7 @@ class Learner:
         self.hierarchy = Hierarchy()
         self.fitter = Fitter(self.dataset, self.reader, config)
         self.adaptation = Adaptation(self.hierarchy, self.fitter, config)
-        self.planner = Planner(self.hierarchy, self.reader, config)
+        self.planner = Planner(self.hierarchy, self.reader, config, planner)
         self.learning_episodes = 0
 
     @property

@@ -18,45 +18,15 @@ from typing import Protocol
 
 import numpy as np
 
-from hadim_cli.config import LearnerConfig
-from hadim_cli.learner.affordance import Affordance, typical_step
+from hadim_cli.config import LearnerConfig, PlannerConfig
+from hadim_cli.learner.affordance import CONTACT_MARGIN, Affordance, typical_step
 from hadim_cli.learner.competence import split_zero
 from hadim_cli.learner.frames import seen
 from hadim_cli.learner.hierarchy import Hierarchy
+from hadim_cli.learner.navigation import Keepout, Navigator, Place
 from hadim_cli.learner.spaces import ACTION, Property, Role, RoleSpace, SpaceReader
 
-MAX_DEPTH = 4
-STEP_QUANTILE = 0.9
-"""Sub-goals are cut to this quantile of an affordance's non-null outcome norms."""
 ROBOT_POSITION = RoleSpace(Role.ROBOT, Property.POSITION)
-CONTEXT_SUPPORT = 0.1
-"""Relations further apart than this (in their model's scale) vote apart in `needed_context`."""
-AGREEMENT = 0.4
-"""Rows whose relation is within this (in their model's scale) of the densest one's agree with
-it, and the needed relation is fitted on them (`Planner._relation_at`)."""
-PLACE_SUPPORT = 0.1
-"""A relation further than this from the needed one (in spreads of that relation over the rows
-with an effect, `_spreads`: ~0.34 m for a push, so ~3 cm) is not the same place."""
-APPROACH_MARGIN = 0.06
-MAX_DETOURS = 3
-REALIGN = 0.45
-"""Re-place (reach the needed relation) when the current one has drifted further than this
-many spreads from it (~15 cm for a push), even if the step still looks supported: a pushed
-object slides off, and a tool pushed 10 cm off its centre goes 30° astray."""
-SUPPORT_NEIGHBOURS = 3
-"""Forward neighbours looked at to decide whether a context is supported by data."""
-POSE_MATCH = 0.3
-"""Rows whose outcome is within this fraction of a step's length count as producing it."""
-SMALL_CORRECTION = 0.5
-"""A sub-goal's remaining step shorter than this fraction of a typical step is not worth
-re-placing for."""
-SUBGOAL_TOLERANCE = 0.3
-"""A sub-goal counts as reached within this fraction of its affordance's typical step."""
-AVOID_MARGIN = 0.05
-"""Gap (m) the robot keeps from an entity it must not touch (the target while a tool moves
-it): the contact margin (0.02 m) plus about the error of the robot's motion model over one
-action (0.03 m held out): with 0.02 m alone, 1 point in 30 of `push-with-tool` failed by a
-touch the model did not foresee."""
 
 
 class Actuator(Protocol):
@@ -80,6 +50,15 @@ class Binding:
     avoid: int = -1
     """An entity the robot must not touch: the target while a tool moves it (a tool
     affordance's data are the target's moves *without* the robot touching it)."""
+
+
+@dataclass(frozen=True)
+class Pursuit:
+    """One level of what the planner pursues: an affordance (or the navigator) and its goal."""
+
+    label: str
+    goal: np.ndarray
+    binding: Binding
 
 
 @dataclass(frozen=True)
@@ -107,10 +86,17 @@ def _normalise_heading(space: RoleSpace, value: np.ndarray) -> np.ndarray:
 class Planner:
     """Turns goals of affordances into primitive actions (paper §4.3, 'TransformToPrimitive')."""
 
-    def __init__(self, hierarchy: Hierarchy, reader: SpaceReader, config: LearnerConfig):
+    def __init__(self, hierarchy: Hierarchy, reader: SpaceReader, config: LearnerConfig,
+                 planner: PlannerConfig | None = None):
         self.h = hierarchy
         self.reader = reader
         self.config = config
+        self.pc = PlannerConfig() if planner is None else planner
+        self.navigator = Navigator(hierarchy, reader, self.pc)
+        self.stack: list[Pursuit] = []
+        self.trips = 0
+        """Trips to a place (re-placements of the robot or of a tool) of the last goal."""
+        """What the planner is pursuing now, outermost first (read by episode recordings)."""
 
     # ------------------------------------------------------------------ reading the state
     def value(self, space: RoleSpace, obs: np.ndarray, b: Binding) -> np.ndarray:
@@ -128,7 +114,7 @@ class Planner:
 
     def step_size(self, aff: Affordance) -> float:
         """The typical size of one step of `aff`: a high quantile of its non-null outcomes."""
-        return typical_step(aff, STEP_QUANTILE, self.config.zero_eps)
+        return typical_step(aff, self.pc.step_quantile, self.config.zero_eps)
 
     # ------------------------------------------------------------------ reaching goals
     def reach(self, aff: Affordance, b: Binding, goal: np.ndarray, actuator: Actuator,
@@ -136,6 +122,43 @@ class Planner:
         """Drive `aff`'s output (under binding `b`) towards the absolute value `goal`."""
         goal = _normalise_heading(aff.output, np.asarray(goal, dtype=float))
         start = float(np.linalg.norm(goal - self.value(aff.output, actuator.obs, b)))
+        if depth == 0:
+            self.navigator.forget()
+            self.trips = 0
+        self.stack.append(Pursuit(f"A{aff.id} {aff.output.name}", goal, b))
+        try:
+            if self.pc.closed_loop and depth == 0:
+                used = self._closed_loop(aff, b, goal, start, actuator, budget)
+            else:
+                used = self._reach_loop(aff, b, goal, start, actuator, budget, depth)
+        finally:
+            self.stack.pop()
+        final = float(np.linalg.norm(goal - self.value(aff.output, actuator.obs, b)))
+        return Attempt(start, final, used)
+
+    def _closed_loop(self, aff: Affordance, b: Binding, goal: np.ndarray, start: float,
+                     actuator: Actuator, budget: int) -> int:
+        """One action at a time, each decided from the top of the chain (`control.Chain`)."""
+        from hadim_cli.learner.control import Chain
+
+        chain = Chain(self, aff, b, goal, start)
+        outer = self.stack[:-1]
+        used = 0
+        try:
+            while used < budget and not actuator.exhausted:
+                action = chain.next_action(actuator.obs)
+                if action is None:
+                    break
+                self.stack[:] = outer + chain.pursued
+                actuator.act(action)
+                used += 1
+        finally:
+            self.stack[:] = outer + [Pursuit(f"A{aff.id} {aff.output.name}", goal, b)]
+        self.trips += chain.trips
+        return used
+
+    def _reach_loop(self, aff: Affordance, b: Binding, goal: np.ndarray, start: float,
+                    actuator: Actuator, budget: int, depth: int) -> int:
         used = 0
         stalls = 0
         while used < budget and not actuator.exhausted:
@@ -145,11 +168,12 @@ class Planner:
             step = self.step_size(aff)
             # A sub-goal (depth > 0) serves a parent that replans after it: chasing its last
             # few millimetres would cost whole actions (a turn, a nudge) for nothing.
-            slack = SUBGOAL_TOLERANCE * step if depth > 0 else 0.0
+            slack = self.pc.subgoal_tolerance * step if depth > 0 else 0.0
             if dist <= max(self.config.reach_tolerance * start, self.config.zero_eps, slack):
                 break
             delta = gap if dist <= step else gap * (step / dist)
-            done = self._one_step(aff, b, delta, actuator, budget - used, depth)
+            done = self._one_step(aff, b, delta, actuator, budget - used, depth,
+                                  remaining=dist / max(step, 1e-9))
             used += max(done, 0)
             if done <= 0:
                 stalls += 1
@@ -157,12 +181,13 @@ class Planner:
                     break
             else:
                 stalls = 0
-        final = float(np.linalg.norm(goal - self.value(aff.output, actuator.obs, b)))
-        return Attempt(start, final, used)
+        return used
 
     def _one_step(self, aff: Affordance, b: Binding, delta: np.ndarray, actuator: Actuator,
-                  budget: int, depth: int) -> int:
-        """Execute one planned step; returns actions used (-1: nothing can be done)."""
+                  budget: int, depth: int, remaining: float = 1.0) -> int:
+        """Execute one planned step; returns actions used (-1: nothing can be done).
+        `remaining`: steps of `aff` still to go to its goal (weighs a trip to a better place
+        against pushing on from here)."""
         if aff.model.n < 2:
             return -1
         obs = actuator.obs
@@ -171,23 +196,27 @@ class Planner:
         progress = 1.0 - np.linalg.norm(here.y_predicted - delta) / max(np.linalg.norm(delta),
                                                                          1e-9)
         relations = self.reachable_relations(aff)
-        if relations.any() and depth < MAX_DEPTH:
+        if relations.any() and depth < self.pc.max_depth:
             # The inverse answer is only trusted where such outcomes were seen: if the current
             # relation (e.g. target-robot) is far from that of the data it comes from, first
             # reach the relation from which outcomes like `delta` are usually obtained.
             spreads = self._spreads(aff)
-            unsupported = self.support_gap(aff, here.x, c, relations, spreads) > PLACE_SUPPORT
+            supported = (self.support_gap(aff, here.x, c, relations, spreads)
+                         <= self.pc.place_support)
             needed = self.needed_context(aff, delta, c, relations)
             off = self._gap(aff, spreads, c, needed, relations)
-            if off > PLACE_SUPPORT and (unsupported or progress < 0.3 or off > REALIGN):
-                if depth > 0 and np.linalg.norm(delta) < SMALL_CORRECTION * self.step_size(aff):
+            if off > self.pc.place_support and self._worth_replacing(
+                    aff, b, needed, delta, obs, progress if supported else 0.0, off, remaining):
+                if depth > 0 and (np.linalg.norm(delta)
+                                  < self.pc.small_correction * self.step_size(aff)):
                     # A small remainder of a sub-goal is not worth a trip round the object
                     # (the robot circled a tool for 3 cm): the parent replans from here.
                     return -1
-                used = self._reach_context(aff, b, needed, actuator, budget, depth)
+                then = aff.model.infer(delta, needed).x
+                used = self._reach_context(aff, b, needed, actuator, budget, depth, then=then)
                 if used > 0:
                     return used
-        elif progress < 0.3 and aff.contexts and depth < MAX_DEPTH:
+        elif progress < 0.3 and aff.contexts and depth < self.pc.max_depth:
             # A pose context (e.g. the heading for a move): reach that of the best answer.
             used = self._reach_context(aff, b, self.nearest_pose(aff, delta, c), actuator,
                                        budget, depth)
@@ -197,16 +226,66 @@ class Planner:
             return -1
         return self.execute(aff.input, here.x, b, actuator, budget, depth, exclude=aff.id)
 
+    def _worth_replacing(self, aff: Affordance, b: Binding, needed: np.ndarray,
+                         delta: np.ndarray, obs: np.ndarray, rate: float, off: float,
+                         remaining: float) -> bool:
+        """Whether to reach the `needed` context before the next step of `aff`.
+
+        With `replace_by_cost`: pushing on from here moves the output at `rate` (the forward
+        model's predicted share of a step, 0 where the data do not support it), so the rest
+        costs about `remaining / rate` steps; a trip costs its estimated actions and then
+        `remaining` full steps. The trip is taken only when it is cheaper (the authors'
+        later planner tries the current place first and moves only when that gains more).
+        Without: the fixed tolerances (progress < 0.3, drift > `realign`)."""
+        if not self.pc.replace_by_cost:
+            return rate <= 0.0 or rate < 0.3 or off > self.pc.realign
+        if rate <= 0.05:
+            return True
+        return self._trip_cost(aff, b, needed, delta, obs) + remaining < remaining / rate
+
+    def _trip_cost(self, aff: Affordance, b: Binding, needed: np.ndarray, delta: np.ndarray,
+                   obs: np.ndarray) -> float:
+        """Estimated primitive actions to reach the `needed` context of `aff`: the robot's
+        drive there (its learned motion, `Navigator.estimate`), and for a relation held by
+        another object (the tool), that object's move at its driver's step plus the robot's
+        drive to behind it."""
+        total, offset = 0.0, 0
+        for space in aff.contexts:
+            dim = self.value(space, obs, b).shape[0]
+            want = needed[offset:offset + dim]
+            offset += dim
+            plan = self._context_goal(space, want, obs, b)
+            if plan is None:
+                continue
+            driven, goal, sub_b = plan
+            drivers = self._drivers(aff, driven, sub_b, b)
+            if not drivers:
+                continue
+            if driven == ROBOT_POSITION:
+                total += self.navigator.estimate(obs, Place(goal), b.target, b.tool)
+                continue
+            entity = sub_b.target
+            position = self.reader.entity_position(obs, entity)
+            way = goal - position
+            length = float(np.linalg.norm(way))
+            if length < 1e-9:
+                continue
+            behind = position - way / length * (self.reader.entity_radius(obs, entity)
+                                                + self.reader.entity_radius(obs, 0))
+            total += (length / max(self.step_size(drivers[0]), 1e-3)
+                      + self.navigator.estimate(obs, Place(behind), b.target, b.tool))
+        return total
+
     def nearest_pose(self, aff: Affordance, delta: np.ndarray, c: np.ndarray) -> np.ndarray:
         """The context nearest `c` among those of the stored rows whose outcome was like
-        `delta` (within `POSE_MATCH` of its length): a robot can often drive backwards as well
+        `delta` (within `pose_match` of its length): a robot can often drive backwards as well
         as forwards, and the smaller turn is the cheaper one. Falls back to the context of the
         inverse model's best answer anywhere."""
         _, nb = aff.model.inverse_neighbours(delta[None], k=self.config.k_inverse)
         _, ctx, y = aff.model.data()
         rows = nb[0]
         err = np.linalg.norm(y[rows] - delta, axis=1) / max(float(np.linalg.norm(delta)), 1e-9)
-        good = rows[err <= POSE_MATCH]
+        good = rows[err <= self.pc.pose_match]
         if good.size == 0:
             return aff.model.infer(delta).context
         scale = aff.model.scales().per_column()[aff.model.dx:aff.model.dx + ctx.shape[1]]
@@ -271,12 +350,12 @@ class Planner:
         closeness = np.exp(-dist2[near] / max(float(np.median(dist2[near])), 1e-12))
         rel = ctx[near][:, free] / ctx_scale[free]
         d2 = np.sum((rel[:, None, :] - rel[None, :, :]) ** 2, axis=2)
-        agreement = np.exp(-d2 / (2 * CONTEXT_SUPPORT) ** 2) @ closeness
+        agreement = np.exp(-d2 / (2 * self.pc.context_support) ** 2) @ closeness
         travel = np.linalg.norm(rel - c[free] / ctx_scale[free], axis=1)
         best = int(np.argmax(closeness * agreement - 1e-3 * travel))
         needed = c.copy()
         needed[free] = self._relation_at((y[near] - delta) / y_scale, ctx[near][:, free],
-                                         closeness * (d2[best] <= AGREEMENT ** 2))
+                                         closeness * (d2[best] <= self.pc.agreement ** 2))
         return needed
 
     @staticmethod
@@ -305,13 +384,14 @@ class Planner:
         the model reads them. `spreads`: `_spreads(aff)`, when the caller has them already."""
         xs, ctx, y = seen(aff.model, at=c)
         effect = np.flatnonzero(self.effect(y))
-        if effect.size < SUPPORT_NEIGHBOURS:
+        if effect.size < self.pc.support_neighbours:
             return np.inf
         scale = aff.model.scales().per_column()[:xs.shape[1] + ctx.shape[1]]
         z = np.concatenate([xs[effect], ctx[effect]], axis=1) / scale
         q = np.concatenate([x, c]) / scale
         d2 = np.einsum("ij,ij->i", z - q, z - q)
-        nb = effect[np.argpartition(d2, SUPPORT_NEIGHBOURS - 1)[:SUPPORT_NEIGHBOURS]]
+        k = self.pc.support_neighbours
+        nb = effect[np.argpartition(d2, k - 1)[:k]]
         spreads = self._spreads(aff) if spreads is None else spreads
         return min(self._gap(aff, spreads, c, ctx[i], relations) for i in nb)
 
@@ -357,8 +437,13 @@ class Planner:
                 return -1
             actuator.act(action)
             return 1
-        if depth >= MAX_DEPTH or budget <= 0:
+        if depth >= self.pc.max_depth or budget <= 0:
             return -1
+        if space == ROBOT_POSITION and self._navigating():
+            step = self.step_size(self.navigator.movers()[0])
+            goal = self.value(space, actuator.obs, b) + x
+            place = Place(goal, None, max(self.pc.subgoal_tolerance * step, 0.005))
+            return self.navigate([place], b, actuator, min(budget, self.config.subgoal_budget))
         controllers = [a for a in self.h.controllers(space) if a.id != exclude]
         if not controllers:
             return -1
@@ -368,9 +453,73 @@ class Planner:
         sub_budget = min(budget, self.config.subgoal_budget)
         return self.reach(sub, sub_b, goal, actuator, sub_budget, depth + 1).actions
 
+    def _navigating(self) -> bool:
+        return self.pc.navigation and self.navigator.available()
+
+    def _keepouts(self, b: Binding, obs: np.ndarray, near: int = -1,
+                  place: np.ndarray | None = None) -> list[Keepout]:
+        """The entity `b` says to avoid, with `avoid_margin`; and `near`, the object a place is
+        taken next to, kept at contact distance but never further than the place itself."""
+        robot_r = self.reader.entity_radius(obs, 0)
+        out = []
+        if b.avoid >= 0:
+            contact = robot_r + self.reader.entity_radius(obs, b.avoid)
+            out.append(Keepout(b.avoid, contact + self.pc.avoid_margin,
+                               contact + CONTACT_MARGIN))
+        if near >= 0 and near != b.avoid and place is not None:
+            centre = self.reader.entity_position(obs, near)
+            contact = robot_r + self.reader.entity_radius(obs, near) + CONTACT_MARGIN
+            out.append(Keepout(near, min(contact, float(np.linalg.norm(place - centre))
+                                         - 0.005)))
+        return out
+
+    def navigate(self, places: list[Place], b: Binding, actuator: Actuator, budget: int,
+                 near: int = -1) -> int:
+        """Drive the robot through `places` by the navigator; returns actions used (-1: it
+        could not move at all)."""
+        used = 0
+        for place in places:
+            self.stack.append(Pursuit("navigate robot.position", place.position, b))
+            try:
+                used = self._drive(place, places[-1], b, actuator, budget, near, used)
+            finally:
+                self.stack.pop()
+        return used if used > 0 else -1
+
+    def _drive(self, place: Place, last: Place, b: Binding, actuator: Actuator, budget: int,
+               near: int, used: int) -> int:
+        while used < budget and not actuator.exhausted:
+            keep = self._keepouts(b, actuator.obs, near, last.position)
+            action = self.navigator.choose(actuator.obs, place, keep, b.target, b.tool)
+            if action is None:
+                break
+            actuator.act(action)
+            used += 1
+        return used
+
+    def heading_for(self, move: np.ndarray, obs: np.ndarray, b: Binding) -> np.ndarray | None:
+        """The heading from which the robot's learned motion produces the displacement `move`
+        in one action (`nearest_pose` of the motion affordance), None if that affordance has
+        no heading context."""
+        mover = self.navigator.movers()[0]
+        heading = RoleSpace(Role.ROBOT, Property.HEADING)
+        if mover is None or heading not in mover.contexts or np.linalg.norm(move) < 1e-9:
+            return None
+        c = self.context(mover, obs, b)
+        scale = self.step_size(mover) / max(float(np.linalg.norm(move)), 1e-9)
+        pose = self.nearest_pose(mover, move * scale, c)
+        offset = 0
+        for space, dim in zip(mover.contexts, mover.model.context_dims, strict=True):
+            if space == heading:
+                h = pose[offset:offset + dim]
+                n = float(np.linalg.norm(h))
+                return h / n if n > 1e-9 else None
+            offset += dim
+        return None
+
     def foresees_contact(self, b: Binding, action: np.ndarray, obs: np.ndarray) -> bool:
         """Whether the robot's own motion model predicts that `action` brings the robot within
-        `AVOID_MARGIN` of the entity `b` says to avoid (half-way or at the end of the
+        `avoid_margin` of the entity `b` says to avoid (half-way or at the end of the
         action)."""
         if b.avoid < 0:
             return False
@@ -383,16 +532,20 @@ class Planner:
         robot = self.reader.entity_position(obs, 0)
         other = self.reader.entity_position(obs, b.avoid)
         reach = (self.reader.entity_radius(obs, 0) + self.reader.entity_radius(obs, b.avoid)
-                 + AVOID_MARGIN)
+                 + self.pc.avoid_margin)
         return any(np.linalg.norm(robot + f * shift - other) <= reach for f in (0.5, 1.0))
 
     # ------------------------------------------------------------------ reaching contexts
     def _reach_context(self, aff: Affordance, b: Binding, needed: np.ndarray,
-                       actuator: Actuator, budget: int, depth: int) -> int:
-        """Move controllable context spaces of `aff` to the values `needed`."""
+                       actuator: Actuator, budget: int, depth: int,
+                       then: np.ndarray | None = None) -> int:
+        """Move controllable context spaces of `aff` to the values `needed`. `then`: the input
+        change `aff` will ask for from there (with navigation, the robot arrives facing the
+        way that change moves it)."""
         used = 0
         offset = 0
-        for space in aff.contexts:
+        spreads = self._spreads(aff)
+        for i, space in enumerate(aff.contexts):
             dim = self.value(space, actuator.obs, b).shape[0]
             want = needed[offset:offset + dim]
             offset += dim
@@ -408,7 +561,23 @@ class Planner:
                 continue
             sub = controllers[0]
             target_entity = sub_b.target if driven.role is not Role.ROBOT else -1
-            for waypoint in self._waypoints(driven, goal, actuator.obs, b, target_entity):
+            waypoints = self._waypoints(driven, goal, actuator.obs, b, target_entity)
+            if driven == ROBOT_POSITION and self._navigating() and space.relative_to is not None:
+                heading = (self.heading_for(then, actuator.obs, b)
+                           if then is not None and aff.input == ROBOT_POSITION else None)
+                near = b.tool if space.role is Role.TOOL else b.target
+                tolerance = max(self.pc.place_support * spreads[i], 0.005)
+                places = [Place(w, None, 2 * tolerance) for w in waypoints[:-1]]
+                places.append(Place(goal, heading, tolerance))
+                done = self.navigate(places, b, actuator, min(budget - used,
+                                                              self.config.goal_budget), near)
+                used += max(done, 0)
+                self.trips += done > 0
+                if used >= budget or actuator.exhausted:
+                    return used
+                continue
+            self.trips += 1
+            for waypoint in waypoints:
                 attempt = self.reach(sub, sub_b, waypoint, actuator,
                                      min(budget - used, self.config.goal_budget), depth + 1)
                 used += attempt.actions
@@ -436,7 +605,7 @@ class Planner:
                    mover: int) -> list[np.ndarray]:
         """Go round the objects in the way (the object about to be pushed first of all, and
         any other: in `push-with-tool` touching the target directly fails) instead of
-        through them; at most `MAX_DETOURS` detours."""
+        through them; at most `max_detours` detours."""
         if driven.prop is not Property.POSITION or b.target < 0:
             return [goal]
         mover_entity = 0 if driven.role is Role.ROBOT else mover
@@ -446,7 +615,7 @@ class Planner:
         mover_radius = self.reader.entity_radius(obs, mover_entity)
         points: list[np.ndarray] = []
         start = self.reader.entity_position(obs, mover_entity)
-        for _ in range(MAX_DETOURS):
+        for _ in range(self.pc.max_detours):
             hit = self._first_obstacle(start, goal, obs, obstacles, mover_radius)
             if hit is None:
                 break
@@ -474,7 +643,7 @@ class Planner:
         first: tuple[float, np.ndarray, float] | None = None
         for e in obstacles:
             centre = self.reader.entity_position(obs, e)
-            clearance = self.reader.entity_radius(obs, e) + mover_radius + APPROACH_MARGIN
+            clearance = self.reader.entity_radius(obs, e) + mover_radius + self.pc.approach_margin
             s = float(np.clip((centre - start) @ seg / length2, 0.0, 1.0))
             if s >= 0.95 or np.linalg.norm(start + s * seg - centre) >= clearance:
                 continue

@@ -1,0 +1,167 @@
+"""The navigator: reaching a place (position and heading) through predicted motion.
+
+Known answers first (the differential drive's exact kinematics as the motion), then the same
+with forward models fitted on samples of that motion, as the learner's would be."""
+
+from __future__ import annotations
+
+from types import SimpleNamespace
+
+import numpy as np
+import pytest
+
+from hadim_cli.config import PlannerConfig, WorldConfig
+from hadim_cli.evaluation.exact import KinematicMotion
+from hadim_cli.learner.models import LocalLinearModel
+from hadim_cli.learner.navigation import (
+    ROBOT_HEADING,
+    ROBOT_POSITION,
+    Keepout,
+    Navigator,
+    Place,
+    command_grid,
+    line_angle,
+)
+from hadim_cli.learner.spaces import ACTION, SpaceReader
+from hadim_cli.world.layout import ROBOT, Property
+from hadim_cli.world.world import World
+
+WORLD = WorldConfig()
+
+
+class Kinematic:
+    """A robot moved by the exact kinematics, no physics: observations for the navigator."""
+
+    def __init__(self, x: float, y: float, theta: float):
+        self.world = World(WORLD)
+        self.obs = self.world.reset(seed=0)
+        self.layout = self.world.layout
+        self.reader = SpaceReader(self.layout)
+        self.motion = KinematicMotion(WORLD, ROBOT_HEADING, self.reader)
+        self.set(np.array([x, y]), np.array([np.cos(theta), np.sin(theta)]))
+        # Objects far away, out of the way.
+        for i, entity in enumerate(self.layout.objects):
+            self.obs[self.layout.space(entity, Property.POSITION).slice] = (1.9, -1.9 + 0.3 * i)
+
+    def set(self, position: np.ndarray, heading: np.ndarray) -> None:
+        self.obs[self.layout.space(ROBOT, Property.POSITION).slice] = position
+        self.obs[self.layout.space(ROBOT, Property.HEADING).slice] = heading
+
+    def act(self, command: np.ndarray) -> None:
+        shift, after = self.motion(self.obs, command[None])
+        self.set(self.reader.entity_position(self.obs, 0) + shift[0], after[0])
+
+    def place(self, entity: int, position: tuple[float, float]) -> None:
+        name = self.layout.entities[entity]
+        self.obs[self.layout.space(name, Property.POSITION).slice] = position
+
+
+def _drive(nav: Navigator, robot: Kinematic, place: Place, keepouts=(), limit: int = 30
+           ) -> int:
+    for used in range(limit):
+        action = nav.choose(robot.obs, place, list(keepouts))
+        if action is None:
+            return used
+        robot.act(action)
+    return limit
+
+
+def _no_h() -> SimpleNamespace:
+    return SimpleNamespace(with_output=lambda space: [])
+
+
+def test_the_grid_is_finer_near_zero_and_never_stands_still():
+    grid = command_grid(9)
+    assert grid.shape == (80, 2)
+    assert not np.any(np.all(grid == 0, axis=1))
+    values = np.unique(np.abs(grid))
+    assert values[1] < 0.2 and values[-1] == 1.0
+
+
+def test_line_angle_counts_either_way_along_a_heading():
+    a = np.array([[1.0, 0.0]])
+    assert line_angle(a, np.array([[-1.0, 0.0]]))[0] == pytest.approx(0.0)
+    assert line_angle(a, np.array([[0.0, 1.0]]))[0] == pytest.approx(np.pi / 2)
+
+
+@pytest.mark.parametrize("goal, heading", [((0.5, 0.3), 90.0), ((-0.4, 0.2), 0.0),
+                                           ((0.2, -0.6), 45.0)])
+def test_exact_motion_reaches_a_place_facing_the_way_wanted(goal, heading):
+    robot = Kinematic(0.0, 0.0, 0.0)
+    nav = Navigator(_no_h(), robot.reader, PlannerConfig(), robot.motion)
+    want = np.array([np.cos(np.radians(heading)), np.sin(np.radians(heading))])
+    place = Place(np.array(goal), want, 0.03)
+    used = _drive(nav, robot, place)
+    assert nav.reached(robot.obs, place)
+    assert used <= 14  # about the distance at full speed plus two turns
+    h = robot.reader.value_now(ROBOT_HEADING, robot.obs)
+    assert line_angle(h[None], want[None])[0] <= PlannerConfig().heading_tolerance
+
+
+def test_a_keepout_is_never_entered_and_leaving_it_is_always_allowed():
+    robot = Kinematic(0.0, 0.0, 0.0)
+    robot.place(1, (0.6, 0.0))  # an object on the straight way to the place
+    nav = Navigator(_no_h(), robot.reader, PlannerConfig(), robot.motion)
+    keep = [Keepout(1, 0.45, 0.40)]
+    for _ in range(30):
+        action = nav.choose(robot.obs, Place(np.array([1.2, 0.0])), keep)
+        if action is None:
+            break
+        robot.act(action)
+        assert np.linalg.norm(robot.reader.entity_position(robot.obs, 0) - [0.6, 0.0]) >= 0.40
+    # Wedged inside the clearance: a way out is still offered.
+    robot.set(np.array([0.35, 0.0]), np.array([1.0, 0.0]))
+    out = nav.choose(robot.obs, Place(np.array([-0.5, 0.0])), [Keepout(1, 0.45, 0.22)])
+    assert out is not None
+    robot.act(out)
+    assert robot.reader.entity_position(robot.obs, 0)[0] < 0.35
+
+
+def _learned_movers(rng: np.random.Generator, n: int = 600) -> SimpleNamespace:
+    """`action → robot.position` and `action → robot.heading` fitted on `n` random commands
+    of the exact kinematics from random headings, with the heading as context."""
+    robot = Kinematic(0.0, 0.0, 0.0)
+    theta = rng.uniform(-np.pi, np.pi, n)
+    commands = rng.uniform(-1.0, 1.0, (n, 2))
+    shifts, turns, headings = [], [], []
+    for th, cmd in zip(theta, commands, strict=True):
+        h = np.array([np.cos(th), np.sin(th)])
+        robot.set(np.zeros(2), h)
+        shift, after = robot.motion(robot.obs, cmd[None])
+        shifts.append(shift[0])
+        turns.append(after[0] - h)
+        headings.append(h)
+    mover = LocalLinearModel(2, 2, [2])
+    mover.add(commands, np.array(headings), np.array(shifts))
+    turner = LocalLinearModel(2, 2, [2])
+    turner.add(commands, np.array(headings), np.array(turns))
+    affs = {ROBOT_POSITION: SimpleNamespace(id=1, input=ACTION, output=ROBOT_POSITION,
+                                            model=mover, competence=0.9,
+                                            contexts=(ROBOT_HEADING,)),
+            ROBOT_HEADING: SimpleNamespace(id=2, input=ACTION, output=ROBOT_HEADING,
+                                           model=turner, competence=0.9,
+                                           contexts=(ROBOT_HEADING,))}
+    return SimpleNamespace(with_output=lambda space: [affs[space]] if space in affs else [])
+
+
+def test_learned_motion_reaches_a_place_facing_the_way_wanted():
+    h = _learned_movers(np.random.default_rng(0))
+    robot = Kinematic(0.0, 0.0, 0.0)
+    nav = Navigator(h, robot.reader, PlannerConfig())
+    assert nav.available() and nav.movers()[1] is not None
+    place = Place(np.array([0.5, 0.3]), np.array([0.0, 1.0]), 0.03)
+    used = _drive(nav, robot, place)
+    assert nav.reached(robot.obs, place) and used <= 16
+
+
+def test_a_place_pursued_without_progress_is_given_up():
+    """Predictions that promise progress the moves never bring (the robot does not move):
+    the navigator stops after a few actions instead of spending the budget."""
+    robot = Kinematic(0.0, 0.0, 0.0)
+    nav = Navigator(_no_h(), robot.reader, PlannerConfig(), robot.motion)
+    place = Place(np.array([0.8, 0.0]))
+    chosen = [nav.choose(robot.obs, place, []) for _ in range(10)]
+    assert chosen[0] is not None
+    assert sum(c is not None for c in chosen) <= 4
+    nav.forget()  # a new goal attempt starts afresh
+    assert nav.choose(robot.obs, place, []) is not None

@@ -1,0 +1,151 @@
+"""Diagnostics of the planner's levels: planner settings in the config, per-point figures,
+pose and line tasks, exact levels, and animations of evaluation episodes."""
+
+from __future__ import annotations
+
+import dataclasses
+import json
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from hadim_cli.app import app
+from hadim_cli.errors import HadimError
+from hadim_cli.evaluation.metric import heading_error
+from hadim_cli.evaluation.tasks import load_task, load_task_file
+
+ITERATIONS = 300
+
+
+def invoke(runner, *args: object):
+    return runner.invoke(app, [str(a) for a in args])
+
+
+@pytest.fixture(scope="module")
+def store(tmp_path_factory) -> Path:
+    from typer.testing import CliRunner
+
+    path = tmp_path_factory.mktemp("diag") / "s.sqlite"
+    result = invoke(CliRunner(), "train", "--iterations", ITERATIONS, "--eval-every", 0,
+                    "--seed", 1, "--store", path, "--set", "planner.navigation=true",
+                    "--set", "planner.avoid_margin=0.07")
+    assert result.exit_code == 0, result.stderr
+    return path
+
+
+def test_planner_settings_reach_the_planner_and_are_stored(runner, store):
+    from hadim_cli import runs
+
+    shown = json.loads(invoke(runner, "runs", "show", "run-1", "--json", "--store", store).stdout)
+    assert shown["config"]["planner"]["navigation"] is True
+    assert shown["config"]["planner"]["avoid_margin"] == 0.07
+    with runs.open_store(str(store), create=False) as st:
+        session = runs.restore_session(st, st.get_run("run-1"))
+    pc = session.learner.planner.pc
+    assert pc.navigation is True and pc.avoid_margin == 0.07
+    assert session.learner.planner.navigator.config is pc
+
+
+def test_a_bad_planner_setting_is_one_line(runner, tmp_path):
+    result = invoke(runner, "train", "--iterations", 100, "--store", tmp_path / "x.sqlite",
+                    "--set", "planner.navigation_grid=1")
+    assert result.exit_code == 2
+    assert result.stderr.strip().startswith("error: ") and "planner.navigation_grid" in \
+        result.stderr
+    assert not (tmp_path / "x.sqlite").exists()
+
+
+def test_points_report_actions_path_trips_and_line_deviation(runner, store):
+    out = invoke(runner, "eval", "run-1", "--task", "push-line", "--json", "--store", store)
+    assert out.exit_code == 0, out.stderr
+    points = json.loads(out.stdout)["points"]
+    assert len(points) == len(load_task("push-line").points)
+    for p in points:
+        assert {"actions", "robot_path", "trips", "line_deviation"} <= set(p)
+        assert p["robot_path"] >= 0 and p["trips"] >= 0 and p["line_deviation"] >= 0
+    # A robot that moved drove a path at least as long as its displacement.
+    assert any(p["robot_path"] > 0 for p in points)
+
+
+def test_the_pose_task_scores_heading_and_position():
+    task = load_task("reach-pose")
+    assert task.prop == "pose" and len(task.headings) == len(task.points)
+    assert heading_error(0.0, np.pi / 2, np.pi / 2) == 0.0
+    assert heading_error(0.0, 0.0, np.pi / 2) == 1.0
+    assert heading_error(0.0, np.pi / 4, np.pi / 2) == pytest.approx(0.5)
+    assert heading_error(3.0, -3.0, np.pi) == pytest.approx(
+        (2 * np.pi - 6.0) / 2 / (np.pi - 3.0), rel=1e-6)  # across ±π
+
+
+def test_bad_pose_tasks_are_refused(tmp_path):
+    bad = tmp_path / "t.toml"
+    bad.write_text('entity = "robot"\nproperty = "pose"\npoints = [[1, 2]]\nbudget = 5\n'
+                   '[scene]\n')
+    with pytest.raises(HadimError, match="heading in degrees"):
+        load_task_file(bad)
+    bad.write_text('entity = "target"\ntarget = "obj1"\nproperty = "pose"\n'
+                   'points = [[1, 2, 3]]\nbudget = 5\n[scene]\n')
+    with pytest.raises(HadimError, match="'pose' for the robot"):
+        load_task_file(bad)
+
+
+def test_an_exact_level_is_a_diagnostic_not_a_stored_score(runner, store):
+    from store import Store
+
+    with Store.open(store, create=False) as st:
+        before = len(st.evaluations("run-1"))
+    out = invoke(runner, "eval", "run-1", "--task", "move-robot", "--exact", "navigation",
+                 "--json", "--store", store)
+    assert out.exit_code == 0, out.stderr
+    assert 0.0 <= json.loads(out.stdout)["score"] <= 1.0
+    with Store.open(store, create=False) as st:
+        assert len(st.evaluations("run-1")) == before
+    bad = invoke(runner, "eval", "run-1", "--task", "move-robot", "--exact", "physics",
+                 "--store", store)
+    assert bad.exit_code == 2 and bad.stderr.strip() == \
+        "error: --exact: unknown level 'physics' (known: navigation)"
+
+
+def test_the_exact_level_changes_nothing_of_the_learner(store):
+    from hadim_cli import runs
+    from hadim_cli.evaluation.exact import exact_levels
+
+    with runs.open_store(str(store), create=False) as st:
+        session = runs.restore_session(st, st.get_run("run-1"))
+    planner = session.learner.planner
+    before = (planner.pc, planner.navigator)
+    with exact_levels(session.learner, session.config.world, ("navigation",)):
+        assert planner.navigator.motion is not None
+    assert (planner.pc, planner.navigator) == before
+
+
+def test_an_animation_is_written_and_the_same_run_draws_the_same_frames(runner, store,
+                                                                       tmp_path):
+    from PIL import Image, ImageSequence
+
+    from hadim_cli import runs
+    from hadim_cli.evaluation.animate import animate
+    from hadim_cli.evaluation.runner import evaluate
+
+    task = dataclasses.replace(load_task("push-object"), points=((0.8, 0.45),), budget=6)
+    with runs.open_store(str(store), create=False) as st:
+        session = runs.restore_session(st, st.get_run("run-1"))
+    first = evaluate(session.learner, session.config.world, task, record=True)
+    again = evaluate(session.learner, session.config.world, task, record=True)
+    rec = first.recordings[0]
+    assert rec.observations.shape[0] == first.points[0].actions + 1
+    assert len(rec.steps) == first.points[0].actions
+    assert all(step.labels for step in rec.steps)  # what the planner pursued, every action
+    a = animate(first.recordings, session.world.layout, tmp_path / "a.gif", hold=2)
+    b = animate(again.recordings, session.world.layout, tmp_path / "b.gif", hold=2)
+    assert a.read_bytes() == b.read_bytes()
+    durations = [f.info["duration"] for f in ImageSequence.Iterator(Image.open(a))]
+    assert len(durations) == rec.observations.shape[0]  # one frame per observation
+    assert durations[-1] == 2 * durations[0]  # the last one held
+    # Through the CLI: one line saying what it wrote.
+    out = invoke(runner, "eval", "run-1", "--task", "move-robot", "--animate",
+                 tmp_path / "m.gif", "--store", store)
+    assert out.exit_code == 0, out.stderr
+    assert out.stdout.strip().splitlines()[-1] == f"wrote {tmp_path / 'm.gif'}"
+    assert (tmp_path / "m.gif").stat().st_size > 0
