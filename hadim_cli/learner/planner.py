@@ -440,10 +440,14 @@ class Planner:
         if depth >= self.pc.max_depth or budget <= 0:
             return -1
         if space == ROBOT_POSITION and self._navigating():
-            step = self.step_size(self.navigator.movers()[0])
+            mover = self.navigator.movers()[0]
+            step = self.step_size(mover) if mover is not None else float(np.linalg.norm(x))
             goal = self.value(space, actuator.obs, b) + x
             place = Place(goal, None, max(self.pc.subgoal_tolerance * step, 0.005))
-            return self.navigate([place], b, actuator, min(budget, self.config.subgoal_budget))
+            done = self.navigate([place], b, actuator, min(budget, self.config.subgoal_budget))
+            if done > 0:
+                return done
+            # The learned motion sees no way from here: the inverse model's way below.
         controllers = [a for a in self.h.controllers(space) if a.id != exclude]
         if not controllers:
             return -1
@@ -463,9 +467,10 @@ class Planner:
         robot_r = self.reader.entity_radius(obs, 0)
         out = []
         if b.avoid >= 0:
-            contact = robot_r + self.reader.entity_radius(obs, b.avoid)
-            out.append(Keepout(b.avoid, contact + self.pc.avoid_margin,
-                               contact + CONTACT_MARGIN))
+            # Never closer than the margin (not even going round it): the motion model's
+            # errors near contact are those that touch the target.
+            margin = robot_r + self.reader.entity_radius(obs, b.avoid) + self.pc.avoid_margin
+            out.append(Keepout(b.avoid, margin, margin))
         if near >= 0 and near != b.avoid and place is not None:
             centre = self.reader.entity_position(obs, near)
             contact = robot_r + self.reader.entity_radius(obs, near) + CONTACT_MARGIN
@@ -571,11 +576,13 @@ class Planner:
                 places.append(Place(goal, heading, tolerance))
                 done = self.navigate(places, b, actuator, min(budget - used,
                                                               self.config.goal_budget), near)
-                used += max(done, 0)
-                self.trips += done > 0
-                if used >= budget or actuator.exhausted:
-                    return used
-                continue
+                if done > 0:
+                    used += done
+                    self.trips += 1
+                    if used >= budget or actuator.exhausted:
+                        return used
+                    continue
+                # The learned motion sees no way from here: the inverse model's way below.
             self.trips += 1
             for waypoint in waypoints:
                 attempt = self.reach(sub, sub_b, waypoint, actuator,
