@@ -292,10 +292,6 @@ class PlannerConfig:
     counts (the robot drives backwards as well as forwards)."""
     approach_distance: float = 0.08
     """The last stretch (m) before a place is driven straight along the wanted heading."""
-    closed_loop: bool = False
-    """Decide every primitive action from the top of the chain down, each level pushing or
-    placing (`learner/control.py`); off: nested loops, each sub-goal of a lower affordance
-    pursued for up to `learner.subgoal_budget` actions."""
     replace_by_cost: bool = False
     """Re-place only when the trip (its estimated actions) plus pushing from the new place
     costs less than pushing on from here at the rate the forward model predicts; off: the

@@ -127,35 +127,11 @@ class Planner:
             self.trips = 0
         self.stack.append(Pursuit(f"A{aff.id} {aff.output.name}", goal, b))
         try:
-            if self.pc.closed_loop and depth == 0:
-                used = self._closed_loop(aff, b, goal, start, actuator, budget)
-            else:
-                used = self._reach_loop(aff, b, goal, start, actuator, budget, depth)
+            used = self._reach_loop(aff, b, goal, start, actuator, budget, depth)
         finally:
             self.stack.pop()
         final = float(np.linalg.norm(goal - self.value(aff.output, actuator.obs, b)))
         return Attempt(start, final, used)
-
-    def _closed_loop(self, aff: Affordance, b: Binding, goal: np.ndarray, start: float,
-                     actuator: Actuator, budget: int) -> int:
-        """One action at a time, each decided from the top of the chain (`control.Chain`)."""
-        from hadim_cli.learner.control import Chain
-
-        chain = Chain(self, aff, b, goal, start)
-        outer = self.stack[:-1]
-        used = 0
-        try:
-            while used < budget and not actuator.exhausted:
-                action = chain.next_action(actuator.obs)
-                if action is None:
-                    break
-                self.stack[:] = outer + chain.pursued
-                actuator.act(action)
-                used += 1
-        finally:
-            self.stack[:] = outer + [Pursuit(f"A{aff.id} {aff.output.name}", goal, b)]
-        self.trips += chain.trips
-        return used
 
     def _reach_loop(self, aff: Affordance, b: Binding, goal: np.ndarray, start: float,
                     actuator: Actuator, budget: int, depth: int) -> int:

@@ -228,3 +228,23 @@ def test_a_surface_relation_is_reached_at_the_current_pair_s_contact():
     assert np.allclose(goal, np.array([0.4, 0.2]) - 0.27 * u)
     obs[layout.space("robot", Property.POSITION).slice] = goal  # there: it reads as wanted
     assert np.allclose(planner.value(TARGET_ROBOT, obs, Binding(target=1)), 0.3 * u)
+
+
+def test_a_trip_is_taken_only_when_it_costs_less_than_pushing_on():
+    """`planner.replace_by_cost`: re-place when trip + remaining steps < remaining / rate."""
+    from dataclasses import replace
+
+    planner = _planner()
+    planner.pc = replace(planner.pc, replace_by_cost=True)
+    planner._trip_cost = lambda *args: 5.0  # actions to the better place
+
+    def worth(rate: float, remaining: float, off: float = 0.2) -> bool:
+        return planner._worth_replacing(None, None, None, None, None, rate, off, remaining)
+
+    assert worth(0.0, 1.0)  # nothing can be pushed from here
+    assert worth(0.5, 10.0)  # 5 + 10 < 20
+    assert not worth(0.8, 10.0)  # 5 + 10 > 12.5
+    assert not worth(0.5, 2.0)  # near the goal the trip never pays: 5 + 2 > 4
+    planner.pc = replace(planner.pc, replace_by_cost=False)
+    # The fixed rule: progress < 0.3, or drifted more than `realign` spreads.
+    assert worth(0.2, 2.0) and not worth(0.8, 10.0) and worth(0.8, 10.0, off=0.5)
