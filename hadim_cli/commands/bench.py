@@ -85,3 +85,31 @@ def train(
              if store else "")
     console.print(f"total {result.wall_s:.1f} s, {result.iterations_per_s:.1f} iterations/s"
                   f"{extra}")
+
+
+@app.command("env")
+def env(
+    steps: Annotated[int, typer.Option("--steps", "-n", min=1,
+                                       help="Random actions per variant.")] = 2000,
+    seed: Annotated[int, typer.Option("--seed", help="Seed of starts and actions.")] = 0,
+    json_: JsonOption = False,
+) -> None:
+    """Steps per second of each goal environment (baselines) against `World.step` alone."""
+    from hadim_cli.baselines.bench import bench_env
+    from hadim_cli.baselines.tasks import TASKS
+
+    results = [bench_env(task, reward, "discrete", steps, seed)
+               for task in TASKS for reward in ("sparse", "guided")]
+    if json_:
+        typer.echo(json.dumps([r.to_dict() for r in results]))
+        return
+    from rich.console import Console
+    from rich.table import Table
+
+    table = Table(title=f"goal environments: {steps} random discrete actions, seed {seed}")
+    for col in ("task", "reward", "env steps/s", "World.step/s", "overhead"):
+        table.add_column(col, justify="right")
+    for r in results:
+        table.add_row(r.task, r.reward, f"{r.env_steps_per_s:,.0f}",
+                      f"{r.world_steps_per_s:,.0f}", f"{100 * r.overhead:+.0f} %")
+    Console().print(table)

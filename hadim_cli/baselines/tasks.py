@@ -1,0 +1,132 @@
+"""The three tasks of the comparison as goal-conditioned problems: who is in the room, where
+the robot, the objects and the goals are drawn, and which entity must reach the goal.
+
+One object at a time, as the paper (§5.3): no object on `move-robot`, the target on
+`push-object`, the target and a tool on `push-with-tool`. Objects have the size and colour of
+the same task's evaluation file (`configs/tasks/<task>.toml`), so evaluating on that file asks
+the policy about the objects it trained with.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from hadim_cli.errors import HadimError
+from hadim_cli.evaluation.tasks import Task, load_task
+from hadim_cli.world.scene import ObjectSpec, Scene
+
+GOAL_RADIUS = 0.1
+"""Radius of the goal zone (m): wider than one action's largest step (0.15 m) is half of, so
+driving straight through the zone cannot jump over it. The same for every algorithm."""
+ROBOT_BOX = 1.6
+"""The robot starts uniformly in [-1.6, 1.6]² with a uniform heading."""
+OBJECT_BOX = 1.2
+"""The target starts uniformly in [-1.2, 1.2]², clear of the robot."""
+GOAL_BOX = 1.5
+"""Every goal lies in [-1.5, 1.5]²."""
+GOAL_RING = (0.2, 0.8)
+"""On the pushing tasks, goals lie 0.2–0.8 m from the target's start (the evaluation points
+lie 0.2–0.7 m from it); on move-robot, uniformly in the goal box."""
+TOOL_RING = (0.3, 0.5)
+"""On push-with-tool, the tool starts 0.3–0.5 m (centre to centre) from the target."""
+CLEARANCE = 0.05
+"""Gap kept between drawn bodies (m)."""
+
+TASKS = ("move-robot", "push-object", "push-with-tool")
+
+
+@dataclass(frozen=True)
+class RLTask:
+    """One task of the comparison."""
+
+    name: str
+    objects: tuple[ObjectSpec, ...]
+    """Entity order obj1 (target), obj2 (tool); empty on move-robot."""
+    robot_radius: float
+
+    @property
+    def goal_entity(self) -> int:
+        """Index of the goal entity among (robot, obj1, obj2)."""
+        return 0 if not self.objects else 1
+
+    @property
+    def chain(self) -> tuple[int, ...]:
+        """Entities from the robot to the goal entity, each pushing the next."""
+        return {0: (0,), 1: (0, 1), 2: (0, 2, 1)}[len(self.objects)]
+
+    @property
+    def forbidden_contact(self) -> tuple[str, str] | None:
+        """A robot–target contact ends a push-with-tool episode as failed (as in evaluation)."""
+        return ("obj1", "robot") if len(self.objects) == 2 else None
+
+
+def _spec(task: Task, entity: str | None) -> ObjectSpec:
+    index = int(str(entity).removeprefix("obj")) - 1
+    return task.scene.objects[index]
+
+
+def rl_task(name: str, robot_radius: float) -> RLTask:
+    if name not in TASKS:
+        raise HadimError(f"unknown task '{name}' (known: {', '.join(TASKS)})")
+    task = load_task(name)
+    objects: tuple[ObjectSpec, ...] = ()
+    if task.target is not None:
+        objects = (_spec(task, task.target),)
+        if task.tool is not None:
+            objects += (_spec(task, task.tool),)
+    return RLTask(name, objects, robot_radius)
+
+
+def eval_scene(task: Task, rl: RLTask) -> Scene:
+    """The evaluation task's scene reduced to the entities this task trains with."""
+    keep = [task.target, task.tool][: len(rl.objects)]
+    objects = tuple(_spec(task, name) for name in keep)
+    scene = task.scene
+    return Scene(objects, scene.robot_x, scene.robot_y, scene.robot_heading)
+
+
+def _clear(x: float, y: float, r: float, placed: list[tuple[float, float, float]]) -> bool:
+    return all(math.hypot(x - px, y - py) >= r + pr + CLEARANCE for px, py, pr in placed)
+
+
+def draw_start(task: RLTask, rng: np.random.Generator) -> Scene:
+    """A random start: the robot anywhere, the target clear of it, the tool near the target."""
+    for _ in range(1000):
+        rx, ry = rng.uniform(-ROBOT_BOX, ROBOT_BOX, size=2)
+        heading = float(rng.uniform(-math.pi, math.pi))
+        placed = [(float(rx), float(ry), task.robot_radius)]
+        objects = []
+        for i, spec in enumerate(task.objects):
+            if i == 0:
+                x, y = rng.uniform(-OBJECT_BOX, OBJECT_BOX, size=2)
+            else:
+                d, a = rng.uniform(*TOOL_RING), rng.uniform(-math.pi, math.pi)
+                x, y = placed[1][0] + d * math.cos(a), placed[1][1] + d * math.sin(a)
+            x, y = float(x), float(y)
+            limit = 2.0 - spec.radius - CLEARANCE
+            if abs(x) > limit or abs(y) > limit or not _clear(x, y, spec.radius, placed):
+                break
+            placed.append((x, y, spec.radius))
+            objects.append(ObjectSpec(x, y, spec.radius, spec.height, spec.color,
+                                      spec.pushable, spec.shape))
+        else:
+            return Scene(tuple(objects), float(rx), float(ry), heading)
+    raise HadimError(f"task {task.name}: could not draw a start scene")
+
+
+def draw_goal(task: RLTask, scene: Scene, rng: np.random.Generator) -> np.ndarray:
+    """A goal outside the goal zone of the goal entity's start, inside the goal box."""
+    start = np.array([scene.robot_x, scene.robot_y] if not scene.objects
+                     else [scene.objects[0].x, scene.objects[0].y])
+    for _ in range(1000):
+        if scene.objects:
+            d, a = rng.uniform(*GOAL_RING), rng.uniform(-math.pi, math.pi)
+            goal = start + d * np.array([math.cos(a), math.sin(a)])
+        else:
+            goal = rng.uniform(-GOAL_BOX, GOAL_BOX, size=2)
+        if np.all(np.abs(goal) <= GOAL_BOX) and np.linalg.norm(goal - start) > 2 * GOAL_RADIUS:
+            return goal
+    raise HadimError(f"task {task.name}: could not draw a goal")
