@@ -83,13 +83,16 @@ class GoalWorldEnv(gym.Env):
     metadata = {"render_modes": []}
 
     def __init__(self, task: str = "move-robot", actions: str = "discrete",
-                 reward: str = "sparse", world: WorldConfig | None = None):
+                 reward: str = "sparse", world: WorldConfig | None = None,
+                 max_steps: int = MAX_STEPS):
         self.actions = choice(Actions, actions, "actions")
         self.reward_kind = choice(Reward, reward, "reward")
         base = world or WorldConfig()
         self.task = rl_task(task, base.robot_radius)
         self.world = World(world_config(base, self.task))
         self.radius = GOAL_RADIUS
+        self.max_steps = max_steps
+        """Actions before an episode is truncated (the paper's 1000; smaller in tests)."""
         n = len(self.task.objects)
         self._dims = 4 + 2 * n
         box = np.full(self._dims, HALF_ROOM, dtype=np.float32)
@@ -146,7 +149,7 @@ class GoalWorldEnv(gym.Env):
         if contact is not None and contact in self.world.last_contacts:
             terminated = True
             info["contact"] = True
-        truncated = not terminated and len(self._taken) >= MAX_STEPS
+        truncated = not terminated and len(self._taken) >= self.max_steps
         if self.recorder is not None:
             self.recorder(wheels, before, self._flat, reward, terminated, truncated)
         return obs, reward, terminated, truncated, info

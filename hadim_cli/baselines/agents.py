@@ -1,0 +1,302 @@
+"""The four algorithms of the comparison behind one small interface: `learn(steps)`,
+`act(obs)` (greedy, for evaluation), `state(...)` / `restore(...)` as JSON and arrays.
+
+- `q-learning`: ours (`qlearning.TabularQ`), numpy, seeded from the run's generator.
+- `dqn`, `a2c`: stable-baselines3 with `MultiInputPolicy` (a UVFA: the goal is an input),
+  device "cpu". Two small subclasses fix the exploration schedule's horizon to the run's (SB3
+  reads it from each `learn` call, and a run learns chunk by chunk).
+- `curious`: SB3's DQN with `HerReplayBuffer` (future, k = 4) over `curious.ModularGoalEnv`.
+
+SB3 draws from the global numpy, torch and Python generators (seeded by its `seed=`, an
+integer drawn from the run's generator) and from the action space's generator; all of their
+states are checkpointed. Replay buffers are checkpointed as the rows each chunk added (a
+recording buffer keeps the arguments of every `add`); a restore replays them into a fresh
+buffer, which rebuilds SB3's circular and HER episode bookkeeping exactly.
+"""
+
+from __future__ import annotations
+
+import enum
+from dataclasses import asdict, dataclass, field
+from typing import Any
+
+import numpy as np
+
+from hadim_cli.baselines.curious import ModularGoalEnv
+from hadim_cli.baselines.env import Actions, GoalWorldEnv, choice
+from hadim_cli.baselines.qlearning import QLearningParams, TabularQ
+from hadim_cli.baselines.rewards import Reward
+from hadim_cli.baselines.state import global_rngs, join, set_global_rngs, split
+from hadim_cli.baselines.tasks import TASKS
+from hadim_cli.config import WorldConfig
+from hadim_cli.errors import HadimError
+
+CHUNK_MULTIPLE = 20
+"""Chunks (iterations between checkpoints) are multiples of DQN's train_freq (4) and A2C's
+n_steps (5), so SB3 never runs past a chunk's end."""
+
+
+class Algorithm(enum.StrEnum):
+    Q_LEARNING = "q-learning"
+    DQN = "dqn"
+    A2C = "a2c"
+    CURIOUS = "curious"
+
+
+DQN_PARAMS: dict[str, Any] = {
+    "learning_rate": 1e-4, "buffer_size": 100_000, "learning_starts": 1000, "batch_size": 32,
+    "gamma": 0.99, "train_freq": 4, "gradient_steps": 1, "target_update_interval": 1000,
+    "exploration_fraction": 0.1, "exploration_initial_eps": 1.0, "exploration_final_eps": 0.05,
+}
+"""SB3's DQN defaults but target_update_interval 10 000 → 1 000 (a 50 000-iteration run would
+update its target 5 times) and learning_starts 100 → 1 000; net [64, 64] (SB3's default)."""
+A2C_PARAMS: dict[str, Any] = {"learning_rate": 7e-4, "n_steps": 5, "gamma": 0.99,
+                              "ent_coef": 0.0}
+"""SB3's A2C defaults (RMSprop, n_steps 5), one environment."""
+HER_PARAMS: dict[str, Any] = {"n_sampled_goal": 4, "goal_selection_strategy": "future"}
+
+
+@dataclass(frozen=True)
+class BaselineConfig:
+    """What a baseline run is: stored as the run's config (`kind = "baseline"`)."""
+
+    algorithm: str
+    task: str
+    reward: str
+    actions: str = "discrete"
+    horizon: int = 50_000
+    """Iterations the exploration schedule spans (the first `train`'s --iterations)."""
+    chunk: int = 1000
+    """Iterations between checkpoints (and evaluations, when on)."""
+    eval_every: int = 1000
+    episode_length: int = 1000
+    """Actions before an episode is truncated (the paper's 1000)."""
+    params: dict[str, Any] = field(default_factory=dict)
+    world: dict[str, Any] = field(default_factory=dict)
+
+    def to_dict(self) -> dict[str, Any]:
+        return {"kind": "baseline", "baseline": asdict(self)}
+
+    @property
+    def world_config(self) -> WorldConfig:
+        return WorldConfig(**self.world) if self.world else WorldConfig()
+
+
+def make_config(algorithm: str, task: str, reward: str, actions: str, horizon: int,
+                eval_every: int, world: WorldConfig, episode_length: int = 1000,
+                ) -> BaselineConfig:
+    """A checked config with the algorithm's parameters resolved; `HadimError` if impossible."""
+    algo = choice(Algorithm, algorithm, "algorithm")
+    choice(Reward, reward, "reward")
+    acts = choice(Actions, actions, "actions")
+    if task not in TASKS:
+        raise HadimError(f"unknown task '{task}' (known: {', '.join(TASKS)})")
+    if algo is not Algorithm.A2C and acts is not Actions.DISCRETE:
+        raise HadimError(f"{algo.value} needs --actions discrete (only a2c takes continuous)")
+    if algo is Algorithm.CURIOUS and reward != Reward.SPARSE:
+        raise HadimError("curious learns on the sparse reward, as in the paper: --reward sparse")
+    if eval_every % CHUNK_MULTIPLE:
+        raise HadimError(f"--eval-every must be a multiple of {CHUNK_MULTIPLE}, got {eval_every}")
+    params = {Algorithm.Q_LEARNING: asdict(QLearningParams()), Algorithm.DQN: DQN_PARAMS,
+              Algorithm.A2C: A2C_PARAMS, Algorithm.CURIOUS: {**DQN_PARAMS, "her": HER_PARAMS}}
+    chosen = dict(params[algo])
+    if "learning_starts" in chosen:  # HER samples only from finished episodes
+        chosen["learning_starts"] = min(chosen["learning_starts"], episode_length)
+    return BaselineConfig(algo.value, task, reward, acts.value, horizon, eval_every or 1000,
+                          eval_every, episode_length, chosen, asdict(world))
+
+
+def read_config(stored: dict[str, Any]) -> BaselineConfig:
+    return BaselineConfig(**stored["baseline"])
+
+
+def is_baseline(stored: dict[str, Any]) -> bool:
+    return stored.get("kind") == "baseline"
+
+
+# --------------------------------------------------------------------------- agents
+
+def environment(cfg: BaselineConfig) -> GoalWorldEnv:
+    return GoalWorldEnv(cfg.task, cfg.actions, cfg.reward, cfg.world_config, cfg.episode_length)
+
+
+class QAgent:
+    """Tabular Q-learning over a goal environment."""
+
+    def __init__(self, cfg: BaselineConfig, seed: int):
+        self.base = environment(cfg)
+        self.env = self.base
+        self.q = TabularQ(self.base, QLearningParams(**cfg.params), cfg.horizon,
+                          np.random.default_rng(seed))
+
+    @property
+    def iterations(self) -> int:
+        return self.q.iterations
+
+    def learn(self, steps: int) -> None:
+        self.q.learn(steps)
+
+    def act(self, obs: dict[str, np.ndarray]) -> int:
+        return self.q.greedy(obs)
+
+    def state(self) -> tuple[dict[str, Any], dict[str, np.ndarray]]:
+        meta, arrays = self.q.state_dict()
+        return {"q": meta, "env": self.base.snapshot()}, arrays
+
+    def restore(self, meta: dict[str, Any], arrays: dict[str, np.ndarray],
+                chunks: list[dict[str, np.ndarray]]) -> None:  # noqa: ARG002
+        obs = self.base.restore(meta["env"])
+        self.q.load_state_dict(meta["q"], arrays, obs)
+
+
+def _recording(buffer_class: type) -> type:
+    """`buffer_class` whose `add` also keeps its arguments (the rows of the current chunk)."""
+
+    class Recording(buffer_class):  # type: ignore[misc, valid-type]
+        def __init__(self, *args: Any, **kwargs: Any):
+            super().__init__(*args, **kwargs)
+            self.log: list[tuple] = []
+
+        def add(self, obs, next_obs, action, reward, done, infos):  # noqa: PLR0913
+            timeout = [bool(i.get("TimeLimit.truncated", False)) for i in infos]
+            self.log.append(({k: np.array(v) for k, v in obs.items()},
+                             {k: np.array(v) for k, v in next_obs.items()},
+                             np.array(action), np.array(reward), np.array(done),
+                             np.array(timeout)))
+            super().add(obs, next_obs, action, reward, done, infos)
+
+    Recording.__name__ = f"Recording{buffer_class.__name__}"
+    return Recording
+
+
+def _horizon(algo_class: type) -> type:
+    """`algo_class` whose schedules span the run's horizon, not one `learn` call."""
+
+    class Horizon(algo_class):  # type: ignore[misc, valid-type]
+        horizon = 1
+
+        def _update_current_progress_remaining(self, num_timesteps: int,
+                                               total_timesteps: int) -> None:  # noqa: ARG002
+            super()._update_current_progress_remaining(num_timesteps, self.horizon)
+
+    Horizon.__name__ = algo_class.__name__
+    return Horizon
+
+
+_COUNTERS = ("num_timesteps", "_n_calls", "_n_updates", "_episode_num", "exploration_rate",
+             "_current_progress_remaining")
+_BUFFER_PARTS = ("obs", "next_obs")
+
+
+class SB3Agent:
+    """DQN, A2C or CURIOUS from stable-baselines3 over a goal environment."""
+
+    def __init__(self, cfg: BaselineConfig, seed: int):
+        from stable_baselines3 import A2C, DQN, HerReplayBuffer
+        from stable_baselines3.common.buffers import DictReplayBuffer
+        from stable_baselines3.common.vec_env import DummyVecEnv
+
+        self.algorithm = Algorithm(cfg.algorithm)
+        self.base = environment(cfg)
+        self.env: GoalWorldEnv | ModularGoalEnv = (
+            ModularGoalEnv(self.base) if self.algorithm is Algorithm.CURIOUS else self.base)
+        vec = DummyVecEnv([lambda: self.env])
+        params = dict(cfg.params)
+        common = {"policy": "MultiInputPolicy", "env": vec, "seed": seed, "device": "cpu",
+                  "verbose": 0}
+        if self.algorithm is Algorithm.A2C:
+            self.model = _horizon(A2C)(**common, **params)
+        else:
+            her = params.pop("her", None)
+            buffer = _recording(HerReplayBuffer if her else DictReplayBuffer)
+            self.model = _horizon(DQN)(**common, **params, replay_buffer_class=buffer,
+                                       replay_buffer_kwargs=her)
+        self.model.horizon = cfg.horizon
+
+    @property
+    def iterations(self) -> int:
+        return int(self.model.num_timesteps)
+
+    def learn(self, steps: int) -> None:
+        self.model.learn(steps, reset_num_timesteps=False, progress_bar=False)
+
+    def act(self, obs: dict[str, np.ndarray]):
+        action, _ = self.model.predict(obs, deterministic=True)
+        return action
+
+    # ------------------------------------------------------------------ checkpoints
+
+    def state(self) -> tuple[dict[str, Any], dict[str, np.ndarray]]:
+        """This chunk's checkpoint: networks, optimiser, counters, generators, the episode
+        in progress, and the replay rows added since the last checkpoint."""
+        m = self.model
+        arrays: dict[str, np.ndarray] = {}
+        meta: dict[str, Any] = {
+            "policy": split(m.policy.state_dict(), "policy", arrays),
+            "optimizer": split(m.policy.optimizer.state_dict(), "optim", arrays),
+            "counters": {k: getattr(m, k) for k in _COUNTERS if hasattr(m, k)},
+            "episode_starts": (None if m._last_episode_starts is None
+                               else m._last_episode_starts.tolist()),
+            "action_space": m.action_space.np_random.bit_generator.state,
+            "env": self.env.snapshot(),
+            "rng": global_rngs(arrays),
+        }
+        buffer = getattr(m, "replay_buffer", None)
+        if buffer is not None:
+            arrays.update(_rows(buffer.log))
+            meta["buffer_rows"] = len(buffer.log)
+            buffer.log.clear()
+        return meta, arrays
+
+    def restore(self, meta: dict[str, Any], arrays: dict[str, np.ndarray],
+                chunks: list[dict[str, np.ndarray]]) -> None:
+        """The state of `meta`/`arrays`; `chunks` are every checkpoint's arrays up to it, in
+        order, whose replay rows are added again."""
+        m = self.model
+        buffer = getattr(m, "replay_buffer", None)
+        if buffer is not None:
+            for rows in chunks:
+                _replay(buffer, rows)
+            buffer.log.clear()
+        m.policy.load_state_dict(join(meta["policy"], arrays))
+        m.policy.optimizer.load_state_dict(join(meta["optimizer"], arrays))
+        for key, value in meta["counters"].items():
+            setattr(m, key, value)
+        if meta["episode_starts"] is not None:
+            m._last_episode_starts = np.array(meta["episode_starts"], dtype=bool)
+        m.action_space.np_random.bit_generator.state = meta["action_space"]
+        obs = self.env.restore(meta["env"])
+        if obs is not None:
+            m._last_obs = {k: v[None].copy() for k, v in obs.items()}
+            m._last_original_obs = m._last_obs
+        set_global_rngs(meta["rng"], arrays)
+
+
+def _rows(log: list[tuple]) -> dict[str, np.ndarray]:
+    if not log:
+        return {}
+    out: dict[str, np.ndarray] = {}
+    for part, index in zip(_BUFFER_PARTS, (0, 1), strict=True):
+        for key in log[0][index]:
+            out[f"buffer.{part}.{key}"] = np.stack([row[index][key] for row in log])
+    for name, index in (("action", 2), ("reward", 3), ("done", 4), ("timeout", 5)):
+        out[f"buffer.{name}"] = np.stack([row[index] for row in log])
+    return out
+
+
+def _replay(buffer, rows: dict[str, np.ndarray]) -> None:
+    if "buffer.action" not in rows:
+        return
+    keys = [k.removeprefix("buffer.obs.") for k in rows if k.startswith("buffer.obs.")]
+    for i in range(len(rows["buffer.action"])):
+        obs = {k: rows[f"buffer.obs.{k}"][i] for k in keys}
+        nxt = {k: rows[f"buffer.next_obs.{k}"][i] for k in keys}
+        infos = [{"TimeLimit.truncated": bool(t)} for t in rows["buffer.timeout"][i]]
+        buffer.add(obs, nxt, rows["buffer.action"][i], rows["buffer.reward"][i],
+                   rows["buffer.done"][i], infos)
+
+
+def make_agent(cfg: BaselineConfig, seed: int) -> QAgent | SB3Agent:
+    if Algorithm(cfg.algorithm) is Algorithm.Q_LEARNING:
+        return QAgent(cfg, seed)
+    return SB3Agent(cfg, seed)
