@@ -12,7 +12,7 @@ from typing import Any
 import typer
 from typer.core import TyperGroup
 
-from hadim_cli.commands import bench, config_cmd, inspect, training, world
+from hadim_cli.commands import baseline, bench, config_cmd, inspect, training, world
 from hadim_cli.errors import HadimError
 from store.errors import StoreError
 
@@ -52,6 +52,7 @@ app.add_typer(inspect.runs_app, name="runs")
 app.add_typer(config_cmd.app, name="config")
 app.add_typer(world.app, name="world")
 app.add_typer(bench.app, name="bench")
+app.add_typer(baseline.app, name="baseline")
 
 
 def main(argv: list[str] | None = None) -> None:

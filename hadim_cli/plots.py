@@ -96,7 +96,7 @@ def timeline_figure(events: Sequence, last_iteration: int, out: Path) -> None:
 
 
 def comparison_figure(groups: Mapping[str, Sequence[Sequence]], out: Path,
-                      tasks: Sequence[str] = ()) -> None:
+                      tasks: Sequence[str] = (), *, log_x: bool = False) -> None:
     """One panel per task, one curve (mean ± std over its runs) per group (paper Fig. 2)."""
     plt = _plt()
     found = sorted({e.task for runs in groups.values() for evs in runs for e in evs})
@@ -118,10 +118,11 @@ def comparison_figure(groups: Mapping[str, Sequence[Sequence]], out: Path,
             ax.fill_between(its, mean - std, mean + std, alpha=0.15)
         ax.set_title(task)
         ax.set_xlabel("iteration")
+        if log_x:
+            ax.set_xscale("log")
         ax.set_ylim(-0.02, 1.02)
         ax.grid(alpha=0.3)
     axes[0][0].set_ylabel("evaluation score")
     axes[0][-1].legend(loc="lower right", fontsize=8)
     fig.tight_layout()
-    fig.savefig(out, dpi=120)
-    plt.close(fig)
+    _save(plt, fig, out)

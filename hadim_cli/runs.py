@@ -155,7 +155,8 @@ class Progress:
 
     iteration: int
     total: int
-    affordances: int
+    affordances: int | None
+    """|H| (None for a baseline run)."""
     scores: dict[str, float]
 
 

@@ -118,7 +118,7 @@ class GoalWorldEnv(gym.Env):
         self._flat = np.zeros(lay.size)
         self._taken: list[list[float]] = []
         self.recorder: Recorder | None = None
-        """Called after every step with (wheels, flat observation before, after, reward,
+        """Called after every step with (wheels, observation and goal before, after, reward,
         terminated, truncated): how a run records its transitions."""
 
     # ------------------------------------------------------------------ gymnasium
@@ -151,7 +151,9 @@ class GoalWorldEnv(gym.Env):
             info["contact"] = True
         truncated = not terminated and len(self._taken) >= self.max_steps
         if self.recorder is not None:
-            self.recorder(wheels, before, self._flat, reward, terminated, truncated)
+            self.recorder(wheels, np.concatenate([before[self._obs_index], self._goal]),
+                          np.concatenate([self._flat[self._obs_index], self._goal]), reward,
+                          terminated, truncated)
         return obs, reward, terminated, truncated, info
 
     def compute_reward(self, achieved_goal, desired_goal, info) -> np.ndarray:
@@ -189,6 +191,14 @@ class GoalWorldEnv(gym.Env):
     def _info(self, before: np.ndarray) -> dict[str, Any]:
         return {"chain_before": before[self._chain_index], "chain_after":
                 self._flat[self._chain_index]}
+
+    @property
+    def columns(self) -> list[str]:
+        """Names of the values of a recorded observation and goal."""
+        names = ["robot.x", "robot.y", "robot.cos", "robot.sin"]
+        for i in range(len(self.task.objects)):
+            names += [f"obj{i + 1}.x", f"obj{i + 1}.y"]
+        return names + ["goal.x", "goal.y"]
 
     @property
     def goal(self) -> np.ndarray:

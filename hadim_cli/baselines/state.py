@@ -8,7 +8,6 @@ of [key, value] pairs so integer keys (an optimiser's parameter ids) come back a
 
 from __future__ import annotations
 
-import random
 from typing import Any
 
 import numpy as np
@@ -57,16 +56,16 @@ def join(tree: Any, arrays: dict[str, np.ndarray]) -> Any:
 
 
 def global_rngs(arrays: dict[str, np.ndarray]) -> dict[str, Any]:
-    """The states of numpy's, Python's and torch's global generators (SB3 draws from them:
-    replay sampling, ε-exploration, A2C's action sampling)."""
+    """The states of numpy's and torch's global generators (SB3 draws from them: replay
+    sampling, ε-exploration, A2C's action sampling). SB3 seeds Python's `random` too but
+    never draws from it while learning (a chunk leaves it unchanged), and other libraries of
+    the process do, so it is not part of a run's state."""
     import torch
 
     name, keys, pos, has_gauss, cached = np.random.get_state()
     arrays["rng.numpy_keys"] = np.asarray(keys, dtype=np.uint32)
     arrays["rng.torch"] = torch.get_rng_state().numpy().copy()
-    version, internal, gauss = random.getstate()
-    return {"numpy": [name, int(pos), int(has_gauss), float(cached)],
-            "python": [version, list(internal), gauss]}
+    return {"numpy": [name, int(pos), int(has_gauss), float(cached)]}
 
 
 def set_global_rngs(meta: dict[str, Any], arrays: dict[str, np.ndarray]) -> None:
@@ -76,5 +75,3 @@ def set_global_rngs(meta: dict[str, Any], arrays: dict[str, np.ndarray]) -> None
     np.random.set_state((name, np.array(arrays["rng.numpy_keys"], dtype=np.uint32), pos,
                          has_gauss, cached))
     torch.set_rng_state(torch.from_numpy(np.array(arrays["rng.torch"], dtype=np.uint8)))
-    version, internal, gauss = meta["python"]
-    random.setstate((version, tuple(internal), gauss))

@@ -36,17 +36,35 @@ def runs_list(store: StoreOption = None, as_json: JsonOption = False) -> None:
         records = st.list_runs()
     if as_json:
         typer.echo(json.dumps([{"name": r.name, "status": r.status.value, "seed": r.seed,
-                                "iterations": r.iterations, "parent": r.parent}
-                               for r in records], indent=2))
+                                "iterations": r.iterations, "parent": r.parent,
+                                **_kind(r.config)} for r in records], indent=2))
         return
     table = Table(title=f"runs in {runs.store_location(store)}")
-    for col in ("name", "status", "iterations", "seed", "parent", "updated"):
+    for col in ("name", "kind", "algorithm", "status", "iterations", "seed", "parent",
+                "updated"):
         table.add_column(col)
     for r in records:
         parent = f"{r.parent}@{r.fork_iteration}" if r.parent else ""
-        table.add_row(r.name, r.status.value, str(r.iterations), str(r.seed), parent,
+        kind = _kind(r.config)
+        table.add_row(r.name, kind["kind"], kind["algorithm"], r.status.value,
+                      str(r.iterations), str(r.seed), parent,
                       r.updated_at.strftime("%Y-%m-%d %H:%M:%S"))
     _console().print(table)
+
+
+def _kind(config: dict) -> dict[str, str]:
+    """A run's kind (learner or baseline) and algorithm, from its stored config."""
+    if config.get("kind") == "baseline":
+        b = config["baseline"]
+        return {"kind": "baseline", "algorithm": f"{b['algorithm']} {b['reward']} {b['task']}"}
+    return {"kind": "learner", "algorithm": "hadim"}
+
+
+def _refuse_baseline(record, what: str) -> None:
+    if record.config.get("kind") == "baseline":
+        algorithm = _kind(record.config)["algorithm"]
+        raise HadimError(f"run {record.name} is a baseline run ({algorithm}): {what} is for "
+                         "the learner's runs")
 
 
 @runs_app.command("show")
@@ -68,7 +86,7 @@ def runs_show(run: RunArg, store: StoreOption = None, as_json: JsonOption = Fals
         info = {
             "name": r.name, "status": r.status.value, "iterations": r.iterations,
             "seed": r.seed, "parent": r.parent, "fork_iteration": r.fork_iteration,
-            "affordances": n_aff, "scores": latest,
+            **_kind(r.config), "affordances": n_aff, "scores": latest,
             "dataset_sha256": st.dataset_sha256(run),
             "lock": None if r.lock is None else {
                 "owner": r.lock.owner, "pid": r.lock.pid, "host": r.lock.host,
@@ -102,6 +120,7 @@ def affordances(
 
     with runs.open_store(store, create=False) as st:
         record = st.get_run(run)
+        _refuse_baseline(record, "affordances")
         if at is not None and at > record.iterations:
             raise HadimError(f"--at {at} is beyond run {run}'s {record.iterations} iterations")
         events = st.events(run, upto_iteration=at)
@@ -158,14 +177,27 @@ def eval_cmd(
         record = st.get_run(run)
         if at is not None and at > record.iterations:
             raise HadimError(f"--at {at} is beyond run {run}'s {record.iterations} iterations")
-        session = runs.restore_session(st, record, at)
-        with exact_levels(session.learner, session.config.world, tuple(exact or ())):
-            result = evaluate(session.learner, session.config.world, chosen,
-                              record=animate is not None)
-        if not exact:
-            # A score with an exact level is a diagnostic, not the learner's.
+        if record.config.get("kind") == "baseline":
+            from hadim_cli.baselines import runs as baseline_runs
+            from hadim_cli.baselines.evaluate import check_fits
+
+            if animate is not None or exact:
+                raise HadimError("--animate and --exact are diagnostics of the learner's "
+                                 f"planner; run {run} is a baseline run")
+            check_fits(baseline_runs.read_config(record.config), chosen)
+            session = baseline_runs.restore(st, record, at)
+            result = session.evaluate(chosen)
             st.add_evaluation(run, session.iteration, chosen.name, result.score,
                               result.to_dict()["points"])
+        else:
+            session = runs.restore_session(st, record, at)
+            with exact_levels(session.learner, session.config.world, tuple(exact or ())):
+                result = evaluate(session.learner, session.config.world, chosen,
+                                  record=animate is not None)
+            if not exact:
+                # A score with an exact level is a diagnostic, not the learner's.
+                st.add_evaluation(run, session.iteration, chosen.name, result.score,
+                                  result.to_dict()["points"])
     if animate is not None:
         from hadim_cli.evaluation.animate import animate as draw
 
@@ -184,19 +216,37 @@ def eval_cmd(
 
 @app.command()
 def plot(
-    run: RunArg,
+    run: Annotated[list[str], typer.Argument(help="Run name(s); several runs are drawn "
+                                             "together, grouped by algorithm (paper Fig. 5).")],
     out: Annotated[Path, typer.Option("--out", help="PNG to write.")] = Path("curves.png"),
+    log_x: Annotated[bool, typer.Option("--log-x", help="Iterations on a log axis.")] = False,
     store: StoreOption = None,
 ) -> None:
-    """Draw the run's stored evaluation scores over iterations (paper Fig. 2)."""
+    """Draw stored evaluation scores over iterations: one run (paper Fig. 2), or several on
+    one figure, one panel per task, mean ± std per algorithm and reward (paper Fig. 5)."""
     from hadim_cli import runs
-    from hadim_cli.plots import competence_figure
+    from hadim_cli.plots import comparison_figure, competence_figure
 
+    groups: dict[str, list] = {}
     with runs.open_store(store, create=False) as st:
-        st.get_run(run)
-        evaluations = st.evaluations(run)
-    if not evaluations:
-        raise HadimError(f"run {run} has no evaluations yet (train with --eval-every, or "
-                         f"run hadim eval)")
-    competence_figure({run: evaluations}, out)
+        for name in dict.fromkeys(run):
+            record = st.get_run(name)
+            evaluations = st.evaluations(name)
+            if not evaluations:
+                raise HadimError(f"run {name} has no evaluations yet (train with --eval-every, "
+                                 f"or run hadim eval)")
+            groups.setdefault(_group(record.config), []).append(evaluations)
+    if len(run) == 1:
+        competence_figure({run[0]: groups.popitem()[1][0]}, out)
+    else:
+        comparison_figure(groups, out, ("move-robot", "push-object", "push-with-tool"),
+                          log_x=log_x)
     typer.echo(str(out))
+
+
+def _group(config: dict) -> str:
+    """The curve a run belongs to: the learner, or algorithm + reward."""
+    if config.get("kind") == "baseline":
+        b = config["baseline"]
+        return f"{b['algorithm']} ({b['reward']})"
+    return "hadim (learner)"

@@ -75,7 +75,10 @@ def _resume_hint(run_name: str, total: int, store_option: str | None) -> str:
 
 
 def _drive(store, run_name: str, session, total: int, eval_every: int,
-           store_option: str | None = None) -> None:
+           store_option: str | None = None, train=None, tasks: tuple[str, ...] | None = None,
+           ) -> None:
+    """Train `session` to `total` under the run's lock, with a progress bar and Ctrl-C
+    pause; `train` and `tasks` default to the learner's (a baseline run passes its own)."""
     from rich.console import Console
     from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn
 
@@ -104,12 +107,13 @@ def _drive(store, run_name: str, session, total: int, eval_every: int,
 
                 def on_progress(p: runs.Progress) -> None:
                     scores = " ".join(f"{k}={v:.2f}" for k, v in p.scores.items())
-                    bar.update(task, completed=p.iteration,
-                               info=f"H={p.affordances} {scores}".strip())
+                    size = "" if p.affordances is None else f"H={p.affordances} "
+                    bar.update(task, completed=p.iteration, info=f"{size}{scores}".strip())
 
-                runs.train(store, run_name, session, total, eval_every=eval_every,
-                           tasks=session.config.evaluation.tasks, on_progress=on_progress,
-                           should_stop=should_stop, owner=owner)
+                (train or runs.train)(
+                    store, run_name, session, total, eval_every=eval_every,
+                    tasks=session.config.evaluation.tasks if tasks is None else tasks,
+                    on_progress=on_progress, should_stop=should_stop, owner=owner)
             status = runs.finish_status(session, total)
         except KeyboardInterrupt:
             # The episode in progress is lost; every stored one is intact and resumable.
@@ -177,6 +181,11 @@ def resume(
 
     with runs.open_store(store, create=False) as st:
         record = st.get_run(run)
+        if record.config.get("kind") == "baseline":
+            from hadim_cli.commands.baseline import resume_baseline
+
+            resume_baseline(st, record, iterations, eval_every, store)
+            return
         session = runs.restore_session(st, record)
         total = iterations or max(4000, record.iterations)
         if session.iteration >= total:
@@ -201,6 +210,8 @@ def fork(
 
     with runs.open_store(store, create=False) as st:
         parent = st.get_run(run)
+        if parent.config.get("kind") == "baseline":
+            raise HadimError(f"run {run} is a baseline run: fork is for the learner's runs")
         config = with_overrides(stored_config(parent.config), set_ or [])
         if set_:  # refuse, before writing anything, a config that cannot continue this history
             runs.restore_session(st, parent, parent.iterations if at is None else at, config)

@@ -1,0 +1,56 @@
+"""Evaluate a baseline's greedy policy on a task file, with the learner's metric (§5.1).
+
+The same task files, target points, budgets and metric as `hadim_cli.evaluation.runner`: each
+point starts from the task's scene (reduced to the objects the baseline trains with), the
+policy acts greedily for at most the task's budget of actions (stopping early in the goal
+zone), error = min(1, final / initial distance), 1 on a robot–target contact with a tool;
+score = 1 − mean(error). A fresh environment of its own: evaluation draws nothing from the
+training environment or any generator, so it never changes training.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from hadim_cli.baselines.agents import Algorithm, BaselineConfig, environment
+from hadim_cli.baselines.curious import ModularGoalEnv
+from hadim_cli.baselines.tasks import eval_scene
+from hadim_cli.errors import HadimError
+from hadim_cli.evaluation.metric import point_error, task_score
+from hadim_cli.evaluation.runner import PointResult, TaskResult
+from hadim_cli.evaluation.tasks import Task
+
+
+def check_fits(cfg: BaselineConfig, task: Task) -> None:
+    """A baseline drives the entity it trained for: refuse a task of another kind."""
+    trained = environment(cfg).task
+    wants_objects = 0 if task.entity == "robot" else (2 if task.tool else 1)
+    if wants_objects != len(trained.objects):
+        raise HadimError(f"this run learned {cfg.task}; task {task.name} drives "
+                         f"{'the robot' if task.entity == 'robot' else 'an object'}"
+                         f"{' through a tool' if task.tool else ''}: evaluate it on "
+                         f"--task {cfg.task} (or a points file of that kind)")
+
+
+def evaluate_policy(agent, cfg: BaselineConfig, task: Task) -> TaskResult:
+    check_fits(cfg, task)
+    base = environment(cfg)
+    env = ModularGoalEnv(base) if Algorithm(cfg.algorithm) is Algorithm.CURIOUS else base
+    scene = eval_scene(task, base.task)
+    entity = slice(0, 2) if base.task.goal_entity == 0 else slice(4, 6)
+    results = []
+    for point in task.points:
+        obs = env.start_from(scene, point)
+        start = obs["observation"][entity].astype(float)
+        used, contact = 0, False
+        while used < task.budget:
+            obs, _, terminated, _, info = env.step(agent.act(obs))
+            used += 1
+            contact = bool(info.get("contact"))
+            if terminated:
+                break
+        final = obs["observation"][entity].astype(float)
+        error = 1.0 if contact else point_error(start, final, np.asarray(point))
+        results.append(PointResult(tuple(point), tuple(start.tolist()), tuple(final.tolist()),
+                                   error, used, -1, contact))
+    return TaskResult(task.name, task_score([r.error for r in results]), tuple(results))

@@ -1,0 +1,81 @@
+"""`hadim baseline train`: the paper's reinforcement-learning comparison (§5.3) as runs."""
+
+from __future__ import annotations
+
+from typing import Annotated
+
+import typer
+
+from hadim_cli.commands.common import StoreOption
+from hadim_cli.errors import HadimError
+
+app = typer.Typer(help="Reinforcement-learning baselines (paper §5.3): Q-learning, DQN, A2C, "
+                  "CURIOUS.", no_args_is_help=True)
+
+
+def _threads() -> None:
+    import torch
+
+    torch.set_num_threads(1)  # 2 shared cores: seeds run as parallel processes instead
+
+
+@app.command("train")
+def train(
+    algo: Annotated[str, typer.Option("--algo", help="q-learning, dqn, a2c or curious.")],
+    task: Annotated[str, typer.Option("--task", help="move-robot, push-object or "
+                                      "push-with-tool.")],
+    reward: Annotated[str, typer.Option("--reward", help="sparse or guided (curious: "
+                                        "sparse).")] = "sparse",
+    actions: Annotated[str, typer.Option("--actions", help="discrete (the paper's 4) or "
+                                         "continuous (a2c only).")] = "discrete",
+    iterations: Annotated[int, typer.Option("--iterations", "-n", min=20, help="Total "
+                                            "iterations (a multiple of 20).")] = 50_000,
+    seed: Annotated[int, typer.Option(help="Seed of the run's root generator.")] = 0,
+    eval_every: Annotated[int, typer.Option("--eval-every", min=0, help="Evaluate on the "
+                                            "task every N iterations (0 off).")] = 1000,
+    horizon: Annotated[int | None, typer.Option("--horizon", min=1, help="Iterations the "
+                                                "exploration schedule spans (default: "
+                                                "--iterations).")] = None,
+    episode_length: Annotated[int, typer.Option("--episode-length", min=1, help="Actions "
+                                                "before an episode is cut.")] = 1000,
+    name: Annotated[str | None, typer.Option(help="Run name (default run-N).")] = None,
+    store: StoreOption = None,
+) -> None:
+    """Train a baseline on one task and store it as a run; prints the run's name."""
+    from hadim_cli import runs
+    from hadim_cli.baselines import runs as baseline_runs
+    from hadim_cli.baselines.agents import make_config
+    from hadim_cli.commands.training import _drive
+    from hadim_cli.config import WorldConfig
+
+    cfg = make_config(algo, task, reward, actions, horizon or iterations, eval_every,
+                      WorldConfig(), episode_length)
+    baseline_runs.check_total(iterations)
+    _threads()
+    with runs.open_store(store) as st:
+        record = baseline_runs.new_run(st, cfg, seed, name)
+        typer.echo(record.name)
+        session = baseline_runs.BaselineSession(cfg, seed)
+        _drive(st, record.name, session, iterations, eval_every, store,
+               train=baseline_runs.train, tasks=(cfg.task,))
+
+
+def resume_baseline(st, record, iterations: int | None, eval_every: int | None,
+                    store_option: str | None) -> None:
+    """`hadim resume` on a baseline run."""
+    from hadim_cli.baselines import runs as baseline_runs
+    from hadim_cli.baselines.agents import CHUNK_MULTIPLE
+    from hadim_cli.commands.training import _drive
+
+    session = baseline_runs.restore(st, record)
+    total = iterations or max(session.cfg.horizon, record.iterations)
+    baseline_runs.check_total(total)
+    every = session.cfg.eval_every if eval_every is None else eval_every
+    if every % CHUNK_MULTIPLE:
+        raise HadimError(f"--eval-every must be a multiple of {CHUNK_MULTIPLE}, got {every}")
+    if session.iteration >= total:
+        raise HadimError(f"run {record.name} already has {session.iteration} iterations "
+                         f"(asked for {total}); pass a larger --iterations")
+    _threads()
+    _drive(st, record.name, session, total, every, store_option,
+           train=baseline_runs.train, tasks=(session.cfg.task,))
