@@ -113,3 +113,38 @@ def env(
         table.add_row(r.task, r.reward, f"{r.env_steps_per_s:,.0f}",
                       f"{r.world_steps_per_s:,.0f}", f"{100 * r.overhead:+.0f} %")
     Console().print(table)
+
+
+@app.command("baseline")
+def baseline(
+    algo: Annotated[str, typer.Option("--algo", help="q-learning, dqn, a2c or curious.")],
+    task: Annotated[str, typer.Option("--task", help="A task of the comparison.")] = "push-object",
+    reward: Annotated[str, typer.Option("--reward", help="sparse or guided.")] = "sparse",
+    iterations: Annotated[int, typer.Option("--iterations", "-n", min=20,
+                                            help="Iterations (a multiple of 20).")] = 3000,
+    seed: Annotated[int, typer.Option("--seed", help="Seed of the run.")] = 0,
+    json_: JsonOption = False,
+) -> None:
+    """Iterations per second of a baseline's training (no store, no evaluation)."""
+    import time
+
+    import torch
+
+    from hadim_cli.baselines import runs as baseline_runs
+    from hadim_cli.baselines.agents import make_config
+    from hadim_cli.config import WorldConfig
+
+    torch.set_num_threads(1)
+    cfg = make_config(algo, task, reward, "discrete", iterations, 0, WorldConfig())
+    baseline_runs.check_total(iterations)
+    session = baseline_runs.BaselineSession(cfg, seed)
+    start = time.perf_counter()
+    baseline_runs.train(None, None, session, iterations)
+    wall = time.perf_counter() - start
+    result = {"algorithm": algo, "task": task, "reward": reward, "iterations": iterations,
+              "seconds": wall, "iterations_per_s": iterations / wall}
+    if json_:
+        typer.echo(json.dumps(result))
+        return
+    typer.echo(f"{algo} {reward} {task}: {iterations} iterations in {wall:.1f} s, "
+               f"{iterations / wall:,.0f} iterations/s")
