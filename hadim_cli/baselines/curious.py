@@ -131,7 +131,8 @@ class ModularGoalEnv(gym.Wrapper):
         truncated = not terminated and self.base.steps >= self.base.max_steps
         info["is_success"] = success
         if terminated or truncated:
-            self.outcomes[self.module].append(int(success))
+            kept = self.outcomes[self.module][-(WINDOW - 1):]
+            self.outcomes[self.module] = [*kept, int(success)]
         return out, reward, terminated, truncated, info
 
     def compute_reward(self, achieved_goal, desired_goal, info) -> np.ndarray:
