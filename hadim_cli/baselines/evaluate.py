@@ -17,13 +17,16 @@ from hadim_cli.baselines.curious import ModularGoalEnv
 from hadim_cli.baselines.tasks import eval_scene
 from hadim_cli.errors import HadimError
 from hadim_cli.evaluation.metric import point_error, task_score
-from hadim_cli.evaluation.runner import PointResult, TaskResult
+from hadim_cli.evaluation.runner import PointResult, TaskResult, segment_distance
 from hadim_cli.evaluation.tasks import Task
 
 
 def check_fits(cfg: BaselineConfig, task: Task) -> None:
     """A baseline drives the entity it trained for: refuse a task of another kind."""
     trained = environment(cfg).task
+    if task.headings is not None:
+        raise HadimError(f"task {task.name} asks for headings: the baselines learn positions "
+                         "only")
     wants_objects = 0 if task.entity == "robot" else (2 if task.tool else 1)
     if wants_objects != len(trained.objects):
         raise HadimError(f"this run learned {cfg.task}; task {task.name} drives "
@@ -42,15 +45,21 @@ def evaluate_policy(agent, cfg: BaselineConfig, task: Task) -> TaskResult:
     for point in task.points:
         obs = env.start_from(scene, point)
         start = obs["observation"][entity].astype(float)
-        used, contact = 0, False
+        robot = obs["observation"][:2].astype(float)
+        used, contact, path, deviation = 0, False, 0.0, 0.0
         while used < task.budget:
             obs, _, terminated, _, info = env.step(agent.act(obs))
             used += 1
             contact = bool(info.get("contact"))
+            now = obs["observation"][:2].astype(float)
+            path += float(np.linalg.norm(now - robot))
+            robot = now
+            deviation = max(deviation, segment_distance(
+                obs["observation"][entity].astype(float), start, np.asarray(point)))
             if terminated:
                 break
         final = obs["observation"][entity].astype(float)
         error = 1.0 if contact else point_error(start, final, np.asarray(point))
         results.append(PointResult(tuple(point), tuple(start.tolist()), tuple(final.tolist()),
-                                   error, used, -1, contact))
+                                   error, used, -1, contact, path, 0, deviation))
     return TaskResult(task.name, task_score([r.error for r in results]), tuple(results))
