@@ -19,8 +19,9 @@ from hadim_cli.evaluation.tasks import Task, load_task
 from hadim_cli.world.scene import ObjectSpec, Scene
 
 GOAL_RADIUS = 0.1
-"""Radius of the goal zone (m): wider than one action's largest step (0.15 m) is half of, so
-driving straight through the zone cannot jump over it. The same for every algorithm."""
+"""Radius of the goal zone (m): its diameter (0.2 m) exceeds one action's largest step
+(0.15 m), so driving straight through the zone cannot jump over it. The same for every
+algorithm."""
 ROBOT_BOX = 1.6
 """The robot starts uniformly in [-1.6, 1.6]² with a uniform heading."""
 OBJECT_BOX = 1.2
@@ -29,7 +30,7 @@ GOAL_BOX = 1.5
 """Every goal lies in [-1.5, 1.5]²."""
 GOAL_RING = (0.2, 0.8)
 """On the pushing tasks, goals lie 0.2–0.8 m from the target's start (the evaluation points
-lie 0.2–0.7 m from it); on move-robot, uniformly in the goal box."""
+lie 0.35–0.68 m from it); on move-robot, uniformly in the goal box."""
 TOOL_RING = (0.3, 0.5)
 """On push-with-tool, the tool starts 0.3–0.5 m (centre to centre) from the target."""
 CLEARANCE = 0.05
