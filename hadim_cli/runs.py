@@ -68,7 +68,7 @@ def open_store(option: str | None, *, create: bool = True, writes: bool = True) 
 
 def package_versions() -> dict[str, str]:
     out = {}
-    for name in ("hadim", "numpy", "torch", "pymunk", "scikit-learn", "sqlalchemy"):
+    for name in ("hadim", "numpy", "scipy", "torch", "pymunk", "sqlalchemy"):
         try:
             out[name] = metadata.version(name)
         except metadata.PackageNotFoundError:

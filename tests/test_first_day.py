@@ -261,3 +261,117 @@ def test_version_and_help_without_type_markers():
                     ["store", "check"]):
         text = ok(*command, "--help", env={"COLUMNS": "120"}).stdout
         assert "<bool>" not in text and "<list[str]>" not in text and "<int range>" not in text
+
+
+# --------------------------------------------------------------------------- 9. package
+
+def test_the_wheel_lists_every_package_and_ships_the_configs():
+    """pyproject.toml names the packages one by one (configs/ is mapped into the wheel as
+    hadim_cli/configs), so a new subpackage must be added there: this test says which."""
+    import tomllib
+
+    project = tomllib.loads((ROOT / "pyproject.toml").read_text())
+    setup = project["tool"]["setuptools"]
+    on_disk = {".".join(p.parent.relative_to(ROOT).parts)
+               for top in ("hadim_cli", "store") for p in (ROOT / top).rglob("__init__.py")}
+    assert on_disk | {"hadim_cli.configs"} == set(setup["packages"])
+    assert setup["package-dir"] == {"hadim_cli.configs": "configs"}
+    data = setup["package-data"]["hadim_cli.configs"]
+    shipped = {p.relative_to(ROOT / "configs") for pattern in data
+               for p in (ROOT / "configs").glob(pattern)}
+    assert shipped == {p.relative_to(ROOT / "configs")
+                       for p in (ROOT / "configs").rglob("*.toml")}
+    assert not any("scikit" in d for d in project["project"]["dependencies"])
+
+
+def test_an_installed_package_reads_its_shipped_configs(tmp_path, monkeypatch):
+    """Without a checkout's configs/ beside the package, configs come from the package data."""
+    import shutil
+
+    from hadim_cli import config
+
+    site = tmp_path / "site" / "hadim_cli"
+    (site / "configs").mkdir(parents=True)
+    shutil.copytree(ROOT / "configs", site / "configs", dirs_exist_ok=True)
+    shutil.copy(config.__file__, site / "config.py")
+    monkeypatch.setattr(config, "__file__", str(site / "config.py"))
+    monkeypatch.setattr(config.resources, "files", lambda package: site)
+    monkeypatch.delenv(config.CONFIG_DIR_ENV, raising=False)
+    assert config.configs_dir() == site / "configs"
+    assert config.load_config().evaluation.tasks
+
+
+# --------------------------------------------------------------------------- 5. progress
+
+def test_resume_without_a_terminal_reports_progress_and_a_summary(store):
+    ok("fork", "run-1", "--name", "told", "--store", store)
+    result = ok("resume", "told", "-n", 150, "--eval-every", 50, "--store", store)
+    lines = result.stderr.splitlines()
+    progress = [line for line in lines if line.startswith("told: ") and "/150 iterations" in line]
+    assert progress and progress[-1].startswith("told: 150/150 iterations")
+    assert "ETA" in progress[0]
+    text = result.stderr
+    assert "told: finished at iteration 150 (50 trained in" in text
+    assert "move-robot" in text and "at 150" in text and "affordances:" in text
+    assert f"store: {store}" in text and "hadim runs show told --store" in text
+
+
+def test_the_progress_bar_shows_an_eta():
+    import io
+
+    from rich.console import Console
+
+    from hadim_cli.progress import Reporter
+    from hadim_cli.runs import Progress
+
+    reporter = Reporter("run-9", 0, 400)
+    reporter.console = Console(file=io.StringIO(), force_terminal=True, width=160)
+    reporter.terminal = True
+    with reporter:
+        reporter.update(Progress(200, 400, 3, {"move-robot": 0.5}, 200))
+    out = reporter.console.file.getvalue()
+    assert "ETA" in out and "200/400" in out and "move-robot=0.50 (at 200)" in out
+
+
+# --------------------------------------------------------------------------- 6. Ctrl-C | tee
+
+def test_ctrl_c_with_a_dead_pipe_still_tells_how_to_resume(tmp_path):
+    """`hadim train 2>&1 | tee log`, Ctrl-C: tee dies of the same signal. The run pauses, the
+    resume command reaches the terminal, and the exit status is the documented 0."""
+    import pty
+    import signal
+    import time
+
+    path = tmp_path / "s.sqlite"
+    read_end, write_end = os.pipe()
+    pid, terminal = pty.fork()
+    if pid == 0:  # the child: stdout and stderr into the pipe, the pty as its terminal
+        os.dup2(write_end, 1)
+        os.dup2(write_end, 2)
+        os.environ["PYTHONPATH"] = str(ROOT)
+        os.execv(sys.executable, [sys.executable, "-m", "hadim_cli.app", "train", "-n",
+                                  "100000", "--eval-every", "0", *SMALL, "--store", str(path)])
+    os.close(write_end)
+    seen = b""
+    while b"training from" not in seen:  # the loop has started
+        chunk = os.read(read_end, 4096)
+        assert chunk, seen
+        seen += chunk
+    os.close(read_end)  # tee is gone
+    time.sleep(0.2)
+    os.kill(pid, signal.SIGINT)
+    said = b""
+    while True:
+        try:
+            chunk = os.read(terminal, 4096)
+        except OSError:  # EIO: the child closed the terminal
+            break
+        if not chunk:
+            break
+        said += chunk
+    _, status = os.waitpid(pid, 0)
+    assert os.WEXITSTATUS(status) == 0, (status, said)
+    text = said.decode()
+    assert "paused at iteration" in text and "hadim resume run-1 --iterations 100000" in text
+    with Store.open(path, create=False) as st:
+        assert st.get_run("run-1").status.value == "paused"
