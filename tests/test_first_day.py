@@ -405,3 +405,21 @@ def test_reproduce_help_describes_every_option_and_the_readme_says_how():
             assert described, f"{script}: {lines[i].strip()} has no description"
     readme = (ROOT / "README.md").read_text()
     assert "scripts/reproduce.py" in readme and "docs/figures" in readme
+
+
+def test_figures_name_the_run_and_tell_input_from_context(store, tmp_path, monkeypatch):
+    from hadim_cli import plots
+
+    figures = []
+    monkeypatch.setattr(plots, "_save", lambda plt, fig, out: figures.append(fig))
+    ok("plot", "run-1", "--out", tmp_path / "c.png", "--store", store)
+    ok("affordances", "run-1", "--timeline", "--out", tmp_path / "t.png", "--store", store)
+    curves, timeline = figures
+    assert "run-1" in curves.axes[0].get_title()
+    ax = timeline.axes[0]
+    assert "run-1" in ax.get_title()
+    inputs = [p for p in ax.patches if not p.get_hatch()]
+    contexts = [p for p in ax.patches if p.get_hatch()]
+    assert inputs and contexts  # run-1 has affordances with contexts by iteration 100
+    labels = [t.get_text() for t in ax.texts]
+    assert any(t.startswith("in: ") for t in labels)
