@@ -26,12 +26,13 @@ def say(text: str) -> None:
     """Write a line to stderr; if that pipe is broken, to the controlling terminal; never
     raise. After a broken pipe, stderr and stdout point at /dev/null, so that Python's final
     flush cannot fail and turn the exit status into 120."""
-    try:
-        sys.stderr.write(text + "\n")
-        sys.stderr.flush()
-        return
-    except (BrokenPipeError, OSError, ValueError):
-        _silence_broken_streams()
+    if not _broken:
+        try:
+            sys.stderr.write(text + "\n")
+            sys.stderr.flush()
+            return
+        except (BrokenPipeError, OSError, ValueError):
+            _silence_broken_streams()
     try:
         with open("/dev/tty", "w") as tty:
             tty.write(text + "\n")
@@ -39,7 +40,12 @@ def say(text: str) -> None:
         pass  # no terminal either (e.g. under nohup): the run's status is in the store
 
 
+_broken: list[bool] = []
+"""Non-empty once stderr's reader has gone: later lines go to the terminal directly."""
+
+
 def _silence_broken_streams() -> None:
+    _broken.append(True)
     devnull = os.open(os.devnull, os.O_WRONLY)
     for stream in (sys.stdout, sys.stderr):
         with contextlib.suppress(OSError, ValueError):

@@ -376,6 +376,7 @@ def test_ctrl_c_with_a_dead_pipe_still_tells_how_to_resume(tmp_path):
     assert os.WEXITSTATUS(status) == 0, (status, said)
     text = said.decode()
     assert "paused at iteration" in text and "hadim resume run-1 --iterations 100000" in text
+    assert "run-1: paused at iteration" in text  # the summary follows it
     with Store.open(path, create=False) as st:
         assert st.get_run("run-1").status.value == "paused"
 
