@@ -7,18 +7,40 @@ are imported inside the commands), so `hadim --help` is instant.
 from __future__ import annotations
 
 import sys
-from typing import Any
+from types import SimpleNamespace
+from typing import Annotated, Any
 
 import typer
 from typer.core import TyperGroup
 
-from hadim_cli.commands import baseline, bench, config_cmd, inspect, training, world
+from hadim_cli.commands import baseline, bench, config_cmd, inspect, store_cmd, training, world
 from hadim_cli.errors import HadimError
 from store.errors import StoreError
+
+_METAVARS = {"<bool>": "", "<int>": "N", "<int range>": "N", "<float>": "X", "<path>": "FILE"}
+
+
+def _plain_metavars(command: Any) -> None:
+    """Name every parameter's value in --help as a reader would (`N`, `FILE`, `TEXT`, `RUN`),
+    not by its Python annotation (`<int range>`, `<list[str]>`, `<bool>` for a flag)."""
+    help_option = command.get_help_option(SimpleNamespace(help_option_names=["--help"]))
+    for param in [*command.params, *([help_option] if help_option is not None else [])]:
+        if param.metavar is not None or not hasattr(param, "display_type"):
+            continue
+        if param.param_type_name == "argument":
+            param.metavar = param.name.upper()
+        else:
+            param.metavar = _METAVARS.get(param.display_type(None), "TEXT")
+    for sub in getattr(command, "commands", {}).values():
+        _plain_metavars(sub)
 
 
 class HadimGroup(TyperGroup):
     """Root group: a user's mistake becomes one line on stderr and a non-zero exit."""
+
+    def __init__(self, *args: Any, **kwargs: Any) -> None:
+        super().__init__(*args, **kwargs)
+        _plain_metavars(self)
 
     def invoke(self, ctx: typer.Context) -> Any:
         try:
@@ -35,6 +57,27 @@ class HadimGroup(TyperGroup):
             # The store is a separate package; its errors are a user's (bad file, unknown run).
             typer.echo(f"error: {exc}", err=True)
             ctx.exit(2)
+        except Exception as exc:
+            if not _is_database_error(exc):
+                raise
+            # A damaged or unreachable database is not a bug of hadim: say so in one line.
+            from hadim_cli.runs import opened
+
+            where = opened[0] if opened else "the store"
+            reason = str(getattr(exc, "orig", exc)).splitlines()[0]
+            typer.echo(f"error: {where} cannot be read ({reason}): run `hadim store check "
+                       f"--store {where}`; docs/store.md, 'A damaged store', says what can be "
+                       f"saved", err=True)
+            ctx.exit(2)
+
+
+def _is_database_error(exc: BaseException) -> bool:
+    """A database driver's error, through SQLAlchemy or not, without importing either here."""
+    sa_exc = sys.modules.get("sqlalchemy.exc")
+    if sa_exc is not None and isinstance(exc, sa_exc.DBAPIError):
+        return True
+    sqlite3 = sys.modules.get("sqlite3")
+    return sqlite3 is not None and isinstance(exc, sqlite3.DatabaseError)
 
 
 app = typer.Typer(
@@ -46,6 +89,29 @@ app = typer.Typer(
     pretty_exceptions_enable=False,
     add_completion=False,
 )
+
+
+def _print_version(value: bool) -> None:
+    if value:
+        from importlib import metadata
+
+        try:
+            version = metadata.version("hadim")
+        except metadata.PackageNotFoundError:  # a source checkout run without installing
+            from hadim_cli import __version__ as version
+        typer.echo(f"hadim {version}")
+        raise typer.Exit()
+
+
+@app.callback()
+def _root(
+    version: Annotated[bool, typer.Option("--version", callback=_print_version, is_eager=True,
+                                          help="Print hadim's version and exit.")] = False,
+) -> None:
+    """Hierarchical affordance discovery using intrinsic motivation: train, resume, fork,
+    query and evaluate lifelong-learning sessions of a simulated mobile robot."""
+
+
 app.registered_commands += training.app.registered_commands
 app.registered_commands += inspect.app.registered_commands
 app.add_typer(inspect.runs_app, name="runs")
@@ -53,6 +119,7 @@ app.add_typer(config_cmd.app, name="config")
 app.add_typer(world.app, name="world")
 app.add_typer(bench.app, name="bench")
 app.add_typer(baseline.app, name="baseline")
+app.add_typer(store_cmd.app, name="store")
 
 
 def main(argv: list[str] | None = None) -> None:

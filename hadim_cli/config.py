@@ -17,6 +17,7 @@ import tomllib
 import typing
 from collections.abc import Iterable, Mapping
 from dataclasses import dataclass, field
+from importlib import resources
 from pathlib import Path
 from typing import Any
 
@@ -26,9 +27,16 @@ CONFIG_DIR_ENV = "HADIM_CONFIGS"
 
 
 def configs_dir() -> Path:
-    """The folder holding default.toml and tasks/ (the repository's `configs/`)."""
+    """The folder holding default.toml and tasks/: `$HADIM_CONFIGS`; in a source checkout (or
+    an editable install) the repository's `configs/`, the source of truth; in an installed
+    wheel, the copy shipped as the package data `hadim_cli/configs` (pyproject.toml)."""
     env = os.environ.get(CONFIG_DIR_ENV)
-    return Path(env) if env else Path(__file__).resolve().parents[1] / "configs"
+    if env:
+        return Path(env)
+    checkout = Path(__file__).resolve().parents[1] / "configs"
+    if (checkout / "default.toml").is_file():
+        return checkout
+    return Path(str(resources.files("hadim_cli") / "configs"))
 
 
 def _check(cond: bool, key: str, allowed: str, value: Any) -> None:

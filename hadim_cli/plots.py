@@ -63,8 +63,9 @@ def _space_colour(name: str) -> str:
     return _COLOURS["relative"] if "-" in name else _COLOURS["absolute"]
 
 
-def timeline_figure(events: Sequence, last_iteration: int, out: Path) -> None:
-    """One lane per affordance: its input, output and contexts over time (paper Fig. 4)."""
+def timeline_figure(events: Sequence, last_iteration: int, out: Path, title: str = "") -> None:
+    """One lane per affordance: its input, output and contexts over time (paper Fig. 4).
+    The input space is a solid bar with a dark edge, each context space a lighter hatched one."""
     plt = _plt()
     lanes: dict[int, list] = defaultdict(list)
     for e in events:
@@ -82,15 +83,21 @@ def timeline_figure(events: Sequence, last_iteration: int, out: Path) -> None:
             height = 0.8 / max(1, len(spaces))
             for j, name in enumerate(spaces):
                 y = row - 0.4 + j * height
+                is_input = j == 0
                 ax.barh(y, max(end - e.iteration, 1), left=e.iteration, height=height * 0.9,
-                        align="edge", color=_space_colour(name), edgecolor="white")
+                        align="edge", color=_space_colour(name),
+                        alpha=1.0 if is_input else 0.45, hatch=None if is_input else "//",
+                        edgecolor="black" if is_input else "white",
+                        linewidth=0.8 if is_input else 0.5)
                 if end - e.iteration > 0.06 * max(last_iteration, 1):
-                    ax.text(e.iteration + 5, y + height * 0.45, name, va="center", fontsize=7)
+                    label = f"in: {name}" if is_input else f"ctx: {name}"
+                    ax.text(e.iteration + 5, y + height * 0.45, label, va="center", fontsize=7)
         labels.append(f"A{aid}: → {evs[0].output_space}")
     ax.set_yticks(range(len(labels)), labels)
     ax.set_xlim(0, max(last_iteration, 1))
     ax.set_xlabel("iteration")
-    ax.set_title("affordance timeline (yellow: action, blue: relative, green: absolute spaces)")
+    ax.set_title((f"{title}\n" if title else "") + "input: solid, context: hatched; yellow: "
+                 "action, blue: relative, green: absolute spaces", fontsize=9)
     fig.tight_layout()
     _save(plt, fig, out)
 

@@ -2,24 +2,39 @@
 
 from __future__ import annotations
 
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 from rich.console import Console
 from rich.table import Table
 
-from hadim_cli.evaluation.runner import TaskResult
-from hadim_cli.evaluation.tasks import load_task
-from hadim_cli.learner.frames import FramedModel
-from hadim_cli.session import Session
+if TYPE_CHECKING:  # the learner (and torch) only where H is rendered from a checkpoint
+    from hadim_cli.evaluation.runner import TaskResult
+    from hadim_cli.session import Session
+
+
+def _names(names) -> str:
+    """Space names one per line: a table may wrap between them, never inside one."""
+    return "\n".join(names) or "∅"
+
+
+def entity_label(entity: str, scene) -> str:
+    """`obj7 (red)`: an object with the colour that says whether it can be pushed."""
+    if not entity.startswith("obj"):
+        return entity
+    spec = scene.objects[int(entity[3:]) - 1]
+    return f"{entity} ({'green' if spec.pushable else 'red'})"
 
 
 def affordance_rows(session: Session) -> list[dict[str, Any]]:
     """H as plain rows; p_A is asked about every entity of the push-object task's scene."""
-    learner = session.learner
+    from hadim_cli.evaluation.tasks import load_task
+    from hadim_cli.learner.frames import FramedModel
     from hadim_cli.world.world import World
 
+    learner = session.learner
     world = World(session.config.world)
-    obs = world.reset(scene=load_task("push-object").scene)
+    scene = load_task("push-object").scene
+    obs = world.reset(scene=scene)
     rows = []
     for aff in learner.hierarchy:
         accepted: list[str] | None = None
@@ -29,7 +44,8 @@ def affordance_rows(session: Session) -> list[dict[str, Any]]:
             import numpy as np
 
             ok = aff.classifier.accepts(np.stack(feats))
-            accepted = [e for e, a in zip(entities, ok, strict=True) if a]
+            accepted = [entity_label(e, scene)
+                        for e, a in zip(entities, ok, strict=True) if a]
         frame = (aff.contexts[aff.model.frame.axis].name
                  if isinstance(aff.model, FramedModel) else None)
         rows.append({
@@ -44,28 +60,56 @@ def affordance_rows(session: Session) -> list[dict[str, Any]]:
 
 def render_h_table(console: Console, rows: list[dict[str, Any]], iteration: int) -> None:
     table = Table(title=f"H at iteration {iteration} ({len(rows)} affordances)")
-    for col in ("id", "input → output", "context", "created", "competence", "data",
-                "p_A accepts (reference scene)"):
-        table.add_column(col)
+    table.add_column("id", no_wrap=True)
+    table.add_column("input → output", no_wrap=True)
+    table.add_column("context", no_wrap=True)
+    for col in ("created", "competence", "data"):
+        table.add_column(col, justify="right")
     for r in rows:
-        accepts = "—" if r["accepts"] is None else (", ".join(r["accepts"]) or "nothing")
-        table.add_row(f"A{r['id']}", f"{r['input']} → {r['output']}",
-                      ", ".join(f"{c} (frame)" if c == r["frame"] else c
-                                for c in r["context"]) or "∅", str(r["created_at"]),
-                      f"{r['competence']:.3f}", str(r["data"]), accepts)
+        table.add_row(f"A{r['id']}", f"{r['input']}\n→ {r['output']}",
+                      _names(f"{c} (frame)" if c == r["frame"] else c for c in r["context"]),
+                      str(r["created_at"]), f"{r['competence']:.3f}", str(r["data"]))
     console.print(table)
+    console.print("p_A, on the objects of the push-object task's scene (green: pushable, red: "
+                  "fixed):", markup=False, highlight=False)
+    for r in rows:
+        if r["accepts"] is not None:
+            console.print(f"  A{r['id']} accepts {', '.join(r['accepts']) or 'nothing'}",
+                          markup=False, highlight=False)
+
+
+_CHANGE = {"added": "+", "removed": "−"}
+
+
+def event_text(kind: str, detail: dict[str, Any]) -> str:
+    """`context replaced +tool.position −robot.position`; empty parts are left out."""
+    parts = []
+    for key, value in detail.items():
+        if value in (None, "", [], ()):
+            continue
+        values = list(value) if isinstance(value, list | tuple) else [value]
+        if key in _CHANGE:
+            parts += [f"{_CHANGE[key]}{v}" for v in values]
+        else:
+            parts.append(f"{key.replace('_', ' ')}: {', '.join(map(str, values))}")
+    return " ".join([kind.replace("_", " "), *parts])
 
 
 def render_timeline(console: Console, events: list) -> None:
     table = Table(title=f"affordance timeline ({len(events)} events)")
-    for col in ("iteration", "affordance", "event", "spaces", "context", "competence"):
-        table.add_column(col)
-    for e in events:
+    table.add_column("iter.", justify="right")
+    table.add_column("aff.", no_wrap=True)
+    texts = [event_text(e.kind, e.detail) for e in events]
+    # As wide as its longest word: a table may wrap between the changed spaces, not inside one.
+    table.add_column("event", min_width=max((len(w) for t in texts for w in t.split()),
+                                            default=5))
+    table.add_column("input → output", no_wrap=True)
+    table.add_column("context", no_wrap=True)
+    table.add_column("C", justify="right", min_width=5)
+    for e, text in zip(events, texts, strict=True):
         comp = "" if e.competence is None else f"{e.competence:.3f}"
-        change = ", ".join(f"{k}: {v}" for k, v in e.detail.items())
-        table.add_row(str(e.iteration), f"A{e.affordance_id}",
-                      e.kind + (f" ({change})" if change else ""),
-                      f"{e.input_space} → {e.output_space}", ", ".join(e.context) or "∅", comp)
+        table.add_row(str(e.iteration), f"A{e.affordance_id}", text,
+                      f"{e.input_space}\n→ {e.output_space}", _names(e.context), comp)
     console.print(table)
 
 

@@ -13,17 +13,12 @@ from collections.abc import Callable
 from dataclasses import dataclass
 from importlib import metadata
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
 from hadim_cli.config import Config, stored_config
 from hadim_cli.errors import HadimError
-from hadim_cli.evaluation.runner import TaskResult, evaluate
-from hadim_cli.evaluation.tasks import load_task
-from hadim_cli.learner.hierarchy import Event
-from hadim_cli.learner.state import learner_state, restore_learner
-from hadim_cli.session import EpisodeLog, Session
 from store.api import Store
 from store.records import (
     AffordanceEvent,
@@ -34,6 +29,14 @@ from store.records import (
     RunStatus,
 )
 
+# The learner (and torch, through p_A) is imported inside the functions that need it, so that
+# commands which only read the store (`runs list`, `runs show`, errors) answer in well under a
+# second: importing torch alone takes seconds.
+if TYPE_CHECKING:
+    from hadim_cli.evaluation.runner import TaskResult
+    from hadim_cli.learner.hierarchy import Event
+    from hadim_cli.session import EpisodeLog, Session
+
 STORE_ENV = "HADIM_STORE"
 DEFAULT_STORE = "hadim.sqlite"
 STATE_FORMAT = 1
@@ -43,16 +46,29 @@ def store_location(option: str | None) -> str:
     return option or os.environ.get(STORE_ENV) or DEFAULT_STORE
 
 
-def open_store(option: str | None, *, create: bool = True) -> Store:
+opened: list[str] = []
+"""The store this process opened last: named in the one-line message of a database error."""
+
+
+def open_store(option: str | None, *, create: bool = True, writes: bool = True) -> Store:
+    """The store a command names; one that `writes` first has its file checked (SQLite's
+    `PRAGMA quick_check`), so that a damaged store is refused rather than written into."""
+    from store import engine
+
     where = store_location(option)
-    if not create and "://" not in where and not Path(where).exists():
+    opened[:] = [where]
+    is_file = "://" not in where
+    if not create and is_file and not Path(where).exists():
         raise HadimError(f"no store at {where} (train a run first, or pass --store)")
+    if writes and is_file and Path(where).is_file() and Path(where).stat().st_size > 0:
+        engine.check_sqlite_file(Path(where), create=create)
+        engine.require_intact(Path(where))
     return Store.open(where, create=create)
 
 
 def package_versions() -> dict[str, str]:
     out = {}
-    for name in ("hadim", "numpy", "torch", "pymunk", "scikit-learn", "sqlalchemy"):
+    for name in ("hadim", "numpy", "scipy", "torch", "pymunk", "sqlalchemy"):
         try:
             out[name] = metadata.version(name)
         except metadata.PackageNotFoundError:
@@ -67,6 +83,8 @@ def owner_id() -> str:
 # --------------------------------------------------------------------------- state
 
 def session_state(session: Session) -> tuple[dict[str, Any], dict[str, np.ndarray]]:
+    from hadim_cli.learner.state import learner_state
+
     meta, arrays = learner_state(session.learner)
     return {
         "format": STATE_FORMAT,
@@ -82,6 +100,9 @@ def restore_session(store: Store, run: RunRecord, at: int | None = None,
                     config: Config | None = None) -> Session:
     """The run's session as it stood at its checkpoint at or before `at` (latest if None);
     with `config`, as a fork of it with that config would start (to check it fits)."""
+    from hadim_cli.learner.state import restore_learner
+    from hadim_cli.session import Session
+
     checkpoint = store.checkpoint(run.name, at)
     config = stored_config(run.config) if config is None else config
     session = Session(config, run.seed)
@@ -158,9 +179,14 @@ class Progress:
     affordances: int | None
     """|H| (None for a baseline run)."""
     scores: dict[str, float]
+    scored_at: int | None = None
+    """The iteration `scores` were measured at (None: no evaluation yet in this process)."""
 
 
 def evaluate_tasks(session: Session, tasks: tuple[str, ...]) -> dict[str, TaskResult]:
+    from hadim_cli.evaluation.runner import evaluate
+    from hadim_cli.evaluation.tasks import load_task
+
     return {name: evaluate(session.learner, session.config.world, load_task(name))
             for name in tasks}
 
@@ -172,6 +198,7 @@ def train(store: Store | None, run: str | None, session: Session, total: int, *,
           owner: str | None = None) -> dict[str, float]:
     """Run `session` to `total` iterations, storing every episode (when a store is given)."""
     scores: dict[str, float] = {}
+    scored_at: list[int] = []
 
     def after_episode(log: EpisodeLog) -> bool:
         if store is not None and run is not None:
@@ -180,11 +207,13 @@ def train(store: Store | None, run: str | None, session: Session, total: int, *,
         if eval_every and it % eval_every == 0 and tasks:
             for name, result in evaluate_tasks(session, tasks).items():
                 scores[name] = result.score
+                scored_at[:] = [it]
                 if store is not None and run is not None:
                     store.add_evaluation(run, it, name, result.score,
                                          result.to_dict()["points"])
         if on_progress is not None:
-            on_progress(Progress(it, total, len(session.learner.hierarchy), dict(scores)))
+            on_progress(Progress(it, total, len(session.learner.hierarchy), dict(scores),
+                                 scored_at[0] if scored_at else None))
         return bool(should_stop and should_stop())
 
     session.run(total, after_episode)

@@ -83,14 +83,28 @@ def summarise(store: str, names: dict[str, list[str]], out: Path) -> dict:
 
 
 def main() -> None:
-    parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
-    parser.add_argument("--seeds", type=int, default=5)
-    parser.add_argument("--iterations", type=int, default=4000)
-    parser.add_argument("--eval-every", type=int, default=200)
-    parser.add_argument("--configs", nargs="*", default=list(CONFIGS))
-    parser.add_argument("--workers", type=int, default=2)
-    parser.add_argument("--store", default="results.sqlite")
-    parser.add_argument("--out", type=Path, default=Path("docs/figures"))
+    parser = argparse.ArgumentParser(
+        description=__doc__.split("\n")[0],
+        epilog="Example: python scripts/reproduce.py --seeds 5 --iterations 4000 "
+               "--store results.sqlite --out docs/figures  (15 runs; about 13 minutes on two "
+               "cores, docs/performance.md). Then: python scripts/results_tables.py --store "
+               "results.sqlite for the tables of docs/results.md.",
+        formatter_class=argparse.ArgumentDefaultsHelpFormatter)
+    parser.add_argument("--seeds", type=int, default=5,
+                        help="seeds 0 .. N-1 of every config")
+    parser.add_argument("--iterations", type=int, default=4000,
+                        help="iterations per run (the paper's figures go to 4000)")
+    parser.add_argument("--eval-every", type=int, default=200,
+                        help="evaluate the tasks every N iterations (the curves' resolution)")
+    parser.add_argument("--configs", nargs="*", default=list(CONFIGS), choices=list(CONFIGS),
+                        help="which configs: default (sigma 0.7), random-only (0), "
+                             "goal-babbling-only (1)")
+    parser.add_argument("--workers", type=int, default=2,
+                        help="runs trained at the same time, one process each")
+    parser.add_argument("--store", default="results.sqlite",
+                        help="store the runs go to (finished runs are kept, paused ones resumed)")
+    parser.add_argument("--out", type=Path, default=Path("docs/figures"),
+                        help="folder for competence.png, timeline.png and summary.json")
     args = parser.parse_args()
     args.out.mkdir(parents=True, exist_ok=True)
     jobs = [(c, s) for c in args.configs for s in range(args.seeds)]

@@ -103,10 +103,14 @@ def run_table(store: str, names: list[str]) -> tuple[str, dict]:
 
 
 def main() -> None:
-    parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
-    parser.add_argument("--store", default="results.sqlite")
-    parser.add_argument("--summary", type=Path, default=Path("docs/figures/summary.json"))
-    parser.add_argument("--at", type=int, nargs="*", default=[200, 1000, 2000, 3000, 4000])
+    parser = argparse.ArgumentParser(description=__doc__.split("\n")[0],
+                                     formatter_class=argparse.ArgumentDefaultsHelpFormatter)
+    parser.add_argument("--store", default="results.sqlite",
+                        help="the store scripts/reproduce.py wrote")
+    parser.add_argument("--summary", type=Path, default=Path("docs/figures/summary.json"),
+                        help="summary.json written by scripts/reproduce.py")
+    parser.add_argument("--at", type=int, nargs="*", default=[200, 1000, 2000, 3000, 4000],
+                        help="iterations at which the score table is read")
     args = parser.parse_args()
     summary = json.loads(args.summary.read_text())
     print(score_table(summary, args.at), end="\n\n")

@@ -13,7 +13,7 @@ from sqlalchemy.exc import ArgumentError, DBAPIError
 from sqlalchemy.pool import StaticPool
 
 from store import migrations
-from store.errors import SchemaError, StoreError
+from store.errors import DamagedStore, SchemaError, StoreError
 from store.models import Base, Meta
 
 BUSY_TIMEOUT_S = 10.0
@@ -63,10 +63,7 @@ def check_sqlite_file(path: Path, *, create: bool) -> None:
         if handle.read(len(_SQLITE_HEADER)) != _SQLITE_HEADER:
             raise SchemaError(f"{path} is not a SQLite database")
     readonly = create_engine(
-        "sqlite://",
-        creator=lambda: sqlite3.connect(f"{path.resolve().as_uri()}?mode=ro", uri=True),
-        poolclass=StaticPool,
-    )
+        "sqlite://", creator=lambda: _connect_readonly(path), poolclass=StaticPool)
     try:
         with readonly.connect() as conn:
             version = read_schema_version(conn, str(path))
@@ -76,6 +73,42 @@ def check_sqlite_file(path: Path, *, create: bool) -> None:
         readonly.dispose()
     if version is None and not create:
         raise StoreError(f"no hadim store at {path} (the database is empty)")
+
+
+def _connect_readonly(path: Path) -> sqlite3.Connection:
+    """A read-only connection that creates no file. Without a `-wal` file beside it the whole
+    database is in `path`, which is then opened `immutable` (so SQLite makes no `-wal`/`-shm`,
+    e.g. beside a truncated file it is about to refuse); with one, a live writer may hold
+    commits there, and a plain read-only connection reads them."""
+    wal = path.with_name(path.name + "-wal")
+    flags = "mode=ro" if wal.exists() else "mode=ro&immutable=1"
+    return sqlite3.connect(f"{path.resolve().as_uri()}?{flags}", uri=True)
+
+
+def quick_check(path: Path, *, full: bool = False) -> list[str]:
+    """SQLite's own consistency check of a store file: [] if sound, else its findings.
+
+    `PRAGMA quick_check` (`integrity_check` with `full`) reads every page without writing; a
+    file too damaged to be checked at all gives one finding."""
+    pragma = "integrity_check" if full else "quick_check"
+    try:
+        conn = _connect_readonly(path)
+        try:
+            rows = [str(r[0]) for r in conn.execute(f"PRAGMA {pragma}(20)")]
+        finally:
+            conn.close()
+    except sqlite3.DatabaseError as exc:
+        return [str(exc)]
+    return [] if rows == ["ok"] else rows
+
+
+def require_intact(path: Path) -> None:
+    """Refuse to write into a damaged store: writing would spread the damage."""
+    problems = quick_check(path)
+    if problems:
+        raise DamagedStore(f"{path} is damaged ({problems[0]}{' …' if len(problems) > 1 else ''}); "
+                           f"nothing was written: run `hadim store check --store {path}` and see "
+                           f"docs/store.md, 'A damaged store'")
 
 
 def read_schema_version(conn: Connection, where: str) -> int | None:

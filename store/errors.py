@@ -26,3 +26,7 @@ class RunLocked(StoreError):
 
 class CodecError(StoreError):
     """A value cannot be encoded, or a stored blob is refused (not .npy, object dtype, bad JSON)."""
+
+
+class DamagedStore(StoreError):
+    """The database file fails SQLite's own checks (`PRAGMA quick_check`) or cannot be read."""

@@ -268,12 +268,12 @@ def test_eval_json_and_a_user_points_file(runner, trained, points_file, tmp_path
 
     mine = json.loads(ok(runner, "eval", "run-1", "--points", points_file, "--json",
                          "--store", trained).stdout)
-    assert mine["task"] == "two-points" and mine["iteration"] == 100
+    assert mine["task"] == "user:two-points" and mine["iteration"] == 100
     assert [p["target"] for p in mine["points"]] == [[0.5, 0.0], [0.0, -0.5]]
     table = ok(runner, "eval", "run-1", "--points", points_file, "--store", trained).stdout
     assert "two-points" in table
     with Store.open(trained, create=False) as st:
-        assert {e.task for e in st.evaluations("run-1")} == {"move-robot", "two-points"}
+        assert {e.task for e in st.evaluations("run-1")} == {"move-robot", "user:two-points"}
 
     png = tmp_path / "c.png"
     assert ok(runner, "plot", "run-1", "--out", png, "--store", trained).stdout.strip() == \

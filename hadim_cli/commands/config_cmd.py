@@ -24,15 +24,24 @@ def show(config: ConfigOption = None, set_: SetOption = None, as_json: JsonOptio
     from rich.table import Table
 
     table = Table(title="resolved configuration")
-    for column in ("key", "value", "meaning"):
-        table.add_column(column)
+    table.add_column("key", no_wrap=True)
+    table.add_column("value", overflow="fold", max_width=24)
+    table.add_column("meaning", ratio=1)
+    for key, value, meaning in config_rows(resolved):
+        table.add_row(key, value, meaning)
+    Console().print(table)
+
+
+def config_rows(resolved: Config) -> list[tuple[str, str, str]]:
+    """(key, value, meaning) of every key: the whole docstring, on one line."""
+    rows = []
     for section in dataclasses.fields(Config):
         values = getattr(resolved, section.name)
         docs = field_docs(type(values))
         for f in dataclasses.fields(values):
-            table.add_row(f"{section.name}.{f.name}", repr(getattr(values, f.name)),
-                          docs.get(f.name, "").split("\n")[0])
-    Console().print(table)
+            rows.append((f"{section.name}.{f.name}", repr(getattr(values, f.name)),
+                         " ".join(docs.get(f.name, "").split())))
+    return rows
 
 
 @app.command("validate")

@@ -32,7 +32,7 @@ def runs_list(store: StoreOption = None, as_json: JsonOption = False) -> None:
 
     from hadim_cli import runs
 
-    with runs.open_store(store, create=False) as st:
+    with runs.open_store(store, create=False, writes=False) as st:
         records = st.list_runs()
     if as_json:
         typer.echo(json.dumps([{"name": r.name, "status": r.status.value, "seed": r.seed,
@@ -74,15 +74,17 @@ def runs_show(run: RunArg, store: StoreOption = None, as_json: JsonOption = Fals
 
     from hadim_cli import runs
 
-    with runs.open_store(store, create=False) as st:
+    with runs.open_store(store, create=False, writes=False) as st:
         r = st.get_run(run)
         # |H| from the last episode's per-affordance stats: decoding the checkpoint's arrays
         # would be slow on a long run and fail on a damaged one that `show` should still show.
         n_aff = sum(1 for s in st.stats(run, upto_iteration=r.iterations)
                     if s.iteration == r.iterations)
-        latest: dict[str, float] = {}
-        for e in st.evaluations(run):
-            latest[e.task] = e.score
+        # Each score with the iteration it was measured at: a run resumed with evaluation off,
+        # or a fork, may hold no score of its latest iterations.
+        latest: dict[str, dict] = {}
+        for e in st.evaluations(run):  # by iteration: the last one of a task wins
+            latest[e.task] = {"score": e.score, "iteration": e.iteration}
         info = {
             "name": r.name, "status": r.status.value, "iterations": r.iterations,
             "seed": r.seed, "parent": r.parent, "fork_iteration": r.fork_iteration,
@@ -98,10 +100,29 @@ def runs_show(run: RunArg, store: StoreOption = None, as_json: JsonOption = Fals
         typer.echo(json.dumps(info, indent=2))
         return
     table = Table(title=f"run {r.name}", show_header=False)
+    table.add_column("key", no_wrap=True)
+    table.add_column("value", overflow="fold")
     for key, value in info.items():
         if key != "config":
-            table.add_row(key, str(value))
+            table.add_row(key, _show_value(key, value, r.iterations))
     _console().print(table)
+
+
+def _show_value(key: str, value, iterations: int) -> str:
+    """A value of `runs show` as a reader wants it: no Python reprs, scores with iterations."""
+    if value is None:
+        return "—"
+    if key == "scores":
+        return "\n".join(
+            f"{task}: {s['score']:.3f} at iteration {s['iteration']}"
+            + ("" if s["iteration"] == iterations else " (not re-evaluated since)")
+            for task, s in value.items()) or "none (train with --eval-every, or hadim eval)"
+    if key == "lock":
+        return f"{value['owner']} (pid {value['pid']} on {value['host']}, heartbeat " \
+               f"{value['heartbeat']})"
+    if isinstance(value, dict):
+        return ", ".join(f"{k} {v}" for k, v in value.items())
+    return str(value)
 
 
 @app.command()
@@ -118,7 +139,7 @@ def affordances(
     from hadim_cli import runs
     from hadim_cli.reports import affordance_rows, render_h_table, render_timeline
 
-    with runs.open_store(store, create=False) as st:
+    with runs.open_store(store, create=False, writes=False) as st:
         record = st.get_run(run)
         _refuse_baseline(record, "affordances")
         if at is not None and at > record.iterations:
@@ -128,7 +149,9 @@ def affordances(
             if out is not None:
                 from hadim_cli.plots import timeline_figure
 
-                timeline_figure(events, record.iterations if at is None else at, out)
+                timeline_figure(events, record.iterations if at is None else at, out,
+                                title=f"run {run}: affordance timeline")
+                typer.echo(f"wrote {out}", err=as_json)  # stdout stays pure JSON with --json
             if as_json:
                 typer.echo(json.dumps([_event_json(e) for e in events], indent=2))
             else:
@@ -228,7 +251,7 @@ def plot(
     from hadim_cli.plots import comparison_figure, competence_figure
 
     groups: dict[str, list] = {}
-    with runs.open_store(store, create=False) as st:
+    with runs.open_store(store, create=False, writes=False) as st:
         for name in dict.fromkeys(run):
             record = st.get_run(name)
             evaluations = st.evaluations(name)
@@ -237,7 +260,8 @@ def plot(
                                  f"or run hadim eval)")
             groups.setdefault(_group(record.config), []).append(evaluations)
     if len(run) == 1:
-        competence_figure({run[0]: groups.popitem()[1][0]}, out)
+        competence_figure({run[0]: groups.popitem()[1][0]}, out,
+                          title=f"run {run[0]}: evaluation scores")
     else:
         comparison_figure(groups, out, ("move-robot", "push-object", "push-with-tool"),
                           log_x=log_x)

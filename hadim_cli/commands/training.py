@@ -77,16 +77,16 @@ def _resume_hint(run_name: str, total: int, store_option: str | None) -> str:
 def _drive(store, run_name: str, session, total: int, eval_every: int,
            store_option: str | None = None, train=None, tasks: tuple[str, ...] | None = None,
            ) -> None:
-    """Train `session` to `total` under the run's lock, with a progress bar and Ctrl-C
-    pause; `train` and `tasks` default to the learner's (a baseline run passes its own)."""
-    from rich.console import Console
-    from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn
+    """Train `session` to `total` under the run's lock, with progress and Ctrl-C pause;
+    `train` and `tasks` default to the learner's (a baseline run passes its own)."""
+    import time
 
     from hadim_cli import runs
+    from hadim_cli.progress import Reporter, say, summary
     from store.records import RunStatus
 
-    console = Console(stderr=True)
     owner = runs.owner_id()
+    began, start = time.monotonic(), session.iteration
     with _interruptible() as (should_stop, disarm):
         store.acquire_lock(run_name, owner)
         stored = store.get_run(run_name).iterations
@@ -97,23 +97,12 @@ def _drive(store, run_name: str, session, total: int, eval_every: int,
         store.set_status(run_name, RunStatus.RUNNING)
         status, aborted = RunStatus.FAILED, False
         try:
-            with _heartbeat(store, run_name, owner), Progress(
-                TextColumn("[bold]{task.fields[run]}"), BarColumn(), MofNCompleteColumn(),
-                TextColumn("{task.fields[info]}"), TimeElapsedColumn(), console=console,
-                transient=False, disable=not console.is_terminal,
-            ) as bar:
-                task = bar.add_task("train", total=total, completed=session.iteration,
-                                    run=run_name, info="")
-
-                def on_progress(p: runs.Progress) -> None:
-                    scores = " ".join(f"{k}={v:.2f}" for k, v in p.scores.items())
-                    size = "" if p.affordances is None else f"H={p.affordances} "
-                    bar.update(task, completed=p.iteration, info=f"{size}{scores}".strip())
-
+            with _heartbeat(store, run_name, owner), \
+                    Reporter(run_name, session.iteration, total) as reporter:
                 (train or runs.train)(
                     store, run_name, session, total, eval_every=eval_every,
                     tasks=session.config.evaluation.tasks if tasks is None else tasks,
-                    on_progress=on_progress, should_stop=should_stop, owner=owner)
+                    on_progress=reporter.update, should_stop=should_stop, owner=owner)
             status = runs.finish_status(session, total)
         except KeyboardInterrupt:
             # The episode in progress is lost; every stored one is intact and resumable.
@@ -125,9 +114,12 @@ def _drive(store, run_name: str, session, total: int, eval_every: int,
                 store.release_lock(run_name, owner)
     if status is RunStatus.PAUSED:
         done = store.get_run(run_name).iterations
-        console.print(f"{'aborted' if aborted else 'paused'} at iteration {done}; continue "
-                      f"with: {_resume_hint(run_name, total, store_option)}", soft_wrap=True,
-                      markup=False, highlight=False)
+        # Through `say`: with `2>&1 | tee log`, Ctrl-C has killed tee; the terminal still
+        # gets the command, and the exit status stays the documented one.
+        say(f"{'aborted' if aborted else 'paused'} at iteration {done}; continue with: "
+            f"{_resume_hint(run_name, total, store_option)}")
+    if not aborted:
+        say(summary(store, run_name, start, time.monotonic() - began, store_option))
     if aborted:
         raise typer.Exit(130)
 

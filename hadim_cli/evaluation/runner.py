@@ -13,7 +13,7 @@ import numpy as np
 from hadim_cli.config import WorldConfig
 from hadim_cli.errors import HadimError
 from hadim_cli.evaluation.metric import heading_error, point_error, task_score
-from hadim_cli.evaluation.tasks import Task
+from hadim_cli.evaluation.tasks import Task, check_task
 from hadim_cli.learner.affordance import Affordance
 from hadim_cli.learner.explorer import Learner
 from hadim_cli.learner.planner import Binding, Planner
@@ -177,10 +177,7 @@ def evaluate(learner: Learner, world_config: WorldConfig, task: Task,
              record: bool = False) -> TaskResult:
     """Attempt every point of `task`; score = 1 − mean(min(1, final / initial distance)).
     `record`: also keep each point's observations and what the planner pursued."""
-    n_objects = world_config.n_green + world_config.n_red
-    if len(task.scene.objects) != n_objects:
-        raise HadimError(f"task {task.name} has {len(task.scene.objects)} objects in its scene; "
-                         f"this run's world has {n_objects}")
+    check_task(task, world_config)
     world = World(world_config)
     aff = choose_affordance(learner, task)
     results, recordings = [], []

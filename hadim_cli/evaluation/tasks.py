@@ -1,17 +1,20 @@
 """Evaluation tasks (paper §5.1): a scene, the entity and property to drive, target points.
 
 A task is a TOML file in `configs/tasks/` (or a user's own file passed with `--points`).
+A user's task is named `USER_PREFIX + name`, so its scores can never be stored as, or plotted
+with, a built-in task's.
 """
 
 from __future__ import annotations
 
+import dataclasses
 import math
 from collections.abc import Mapping
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
-from hadim_cli.config import configs_dir, read_toml
+from hadim_cli.config import WorldConfig, configs_dir, read_toml
 from hadim_cli.errors import HadimError
 from hadim_cli.world.layout import Shape
 from hadim_cli.world.scene import ObjectSpec, Scene
@@ -41,6 +44,10 @@ class Task:
     competent affordance that drives the task's property."""
 
 
+USER_PREFIX = "user:"
+"""Prefix of the name of a task read from a user's file (`eval --points`)."""
+
+
 def task_names() -> list[str]:
     return sorted(p.stem for p in (configs_dir() / "tasks").glob("*.toml"))
 
@@ -53,9 +60,45 @@ def load_task(name: str) -> Task:
 
 
 def load_task_file(path: Path) -> Task:
+    """A user's own task, named `user:NAME` (its `name`, else the file's stem)."""
     if not Path(path).is_file():
         raise HadimError(f"task file not found: {path}")
-    return parse_task(read_toml(Path(path)), str(path))
+    task = parse_task(read_toml(Path(path)), str(path))
+    return dataclasses.replace(task, name=USER_PREFIX + task.name)
+
+
+def check_task(task: Task, world: WorldConfig) -> None:
+    """Refuse a task this run's world cannot attempt: another number of objects, or a target
+    point where the entity cannot be (outside the walls, or inside a fixed object)."""
+    n_objects = world.n_green + world.n_red
+    if len(task.scene.objects) != n_objects:
+        raise HadimError(f"task {task.name} has {len(task.scene.objects)} objects in its scene; "
+                         f"this run's world has {n_objects} (list them all, or write "
+                         f"scene = \"push-object\" to use a built-in task's scene)")
+    radius = world.robot_radius
+    if task.entity == "target":
+        index = _object_index(task.target, n_objects, task)
+        radius = task.scene.objects[index].radius
+        _object_index(task.tool, n_objects, task)
+    hw, hh = world.room_width / 2, world.room_height / 2
+    for x, y in task.points:
+        if abs(x) + radius > hw or abs(y) + radius > hh:
+            raise HadimError(f"task {task.name}: target point ({x:g}, {y:g}) is outside the "
+                             f"{2 * hw:g} x {2 * hh:g} m room for a {task.entity} of radius "
+                             f"{radius:g} (points must lie within ±{hw - radius:g}, "
+                             f"±{hh - radius:g})")
+        for i, obj in enumerate(task.scene.objects):
+            if not obj.pushable and math.hypot(x - obj.x, y - obj.y) < radius + obj.radius:
+                raise HadimError(f"task {task.name}: target point ({x:g}, {y:g}) is inside "
+                                 f"the fixed object obj{i + 1} at ({obj.x:g}, {obj.y:g})")
+
+
+def _object_index(name: str | None, n_objects: int, task: Task) -> int:
+    known = [f"obj{i + 1}" for i in range(n_objects)]
+    if name is not None and name not in known:
+        raise HadimError(f"task {task.name}: no object '{name}' in its scene "
+                         f"(obj1 … obj{n_objects})")
+    return -1 if name is None else known.index(name)
 
 
 def _need(values: Mapping[str, Any], key: str, where: str) -> Any:
@@ -124,18 +167,29 @@ def parse_task(values: Mapping[str, Any], where: str) -> Task:
     budget = _need(values, "budget", where)
     if isinstance(budget, bool) or not isinstance(budget, int) or budget < 1:
         raise HadimError(f"task file {where}: 'budget' must be an integer >= 1")
-    scene_raw = _need(values, "scene", where)
-    robot = scene_raw.get("robot", [0.0, 0.0, 0.0])
-    if not isinstance(robot, list) or len(robot) != 3:
-        raise HadimError(f"task file {where}: scene.robot must be [x, y, heading]")
-    objects = tuple(_object(o, where) for o in scene_raw.get("objects", []))
-    scene = Scene(objects, *(_number(v, "scene.robot", where) for v in robot))
+    scene = _scene(_need(values, "scene", where), where)
     target, tool = values.get("target"), values.get("tool")
     if entity == "target" and not target:
         raise HadimError(f"task file {where}: entity 'target' needs target = \"objN\"")
     return Task(str(values.get("name", Path(where).stem)), str(values.get("description", "")),
                 entity, prop, points, budget, scene, target, tool, headings,
                 _affordance_input(values.get("affordance_input"), where))
+
+
+def _scene(raw: Any, where: str) -> Scene:
+    """A `[scene]` table, or the name of a built-in task whose scene to use."""
+    if isinstance(raw, str):
+        if raw not in task_names():
+            raise HadimError(f"task file {where}: scene = {raw!r} names no built-in task "
+                             f"(known: {', '.join(task_names())})")
+        return load_task(raw).scene
+    if not isinstance(raw, Mapping):
+        raise HadimError(f"task file {where}: 'scene' must be a table or a built-in task's name")
+    robot = raw.get("robot", [0.0, 0.0, 0.0])
+    if not isinstance(robot, list) or len(robot) != 3:
+        raise HadimError(f"task file {where}: scene.robot must be [x, y, heading]")
+    objects = tuple(_object(o, where) for o in raw.get("objects", []))
+    return Scene(objects, *(_number(v, "scene.robot", where) for v in robot))
 
 
 def _affordance_input(value: Any, where: str) -> str | None:
