@@ -15,7 +15,7 @@ from pathlib import Path
 from typing import Any, NamedTuple
 
 import numpy as np
-from sqlalchemy import Engine, Select, delete, func, insert, literal, select, update
+from sqlalchemy import Engine, Select, delete, func, insert, literal, select, text, update
 from sqlalchemy.exc import IntegrityError
 from sqlalchemy.orm import Session, sessionmaker
 
@@ -51,6 +51,10 @@ _AUTO_NAME_RE = re.compile(r"run-(\d+)")
 _MAX_SEED = 2**63 - 1
 _KIND_MAX = 32
 _DIGEST_PREFIX = b"hadim-dataset-sha256-v1\n"
+# On a database server, write scopes lock the rows of the runs they touch (SELECT … FOR UPDATE)
+# and auto-naming takes this advisory lock; SQLite's BEGIN IMMEDIATE serialises writes anyway.
+_LOCK_RUN_ROWS = "hadim_lock_run_rows"
+_AUTO_NAME_LOCK_KEY = 0x4841_4449_4D01
 # Rows that belong to one episode of a run; copied on fork up to the checkpoint's episode.
 _PER_EPISODE = (Episode, AffordanceEventRow, AffordanceStatRow, InterestRegionRow)
 
@@ -159,6 +163,9 @@ class Store:
         try:
             if write and self._sqlite:
                 session.connection(execution_options={engines.BEGIN_MODE_OPTION: "IMMEDIATE"})
+            elif write:
+                # A server has no database-wide write lock: writes lock the run's row instead.
+                session.info[_LOCK_RUN_ROWS] = True
             yield session
             session.commit()
         except BaseException:
@@ -674,7 +681,10 @@ class Store:
 
 
 def _run_row(session: Session, name: str) -> Run:
-    row = session.scalar(select(Run).where(Run.name == name))
+    query = select(Run).where(Run.name == name)
+    if session.info.get(_LOCK_RUN_ROWS):
+        query = query.with_for_update()
+    row = session.scalar(query)
     if row is not None:
         return row
     names = list(session.scalars(select(Run.name)))
@@ -687,6 +697,8 @@ def _run_row(session: Session, name: str) -> Run:
 
 
 def _next_auto_name(session: Session) -> str:
+    if session.info.get(_LOCK_RUN_ROWS):  # two creators must not both pick run-N
+        session.execute(text("SELECT pg_advisory_xact_lock(:key)"), {"key": _AUTO_NAME_LOCK_KEY})
     numbers = [
         int(match.group(1))
         for candidate in session.scalars(select(Run.name).where(Run.name.like("run-%")))
