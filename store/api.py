@@ -30,6 +30,7 @@ from store.models import (
     Episode,
     EvaluationRow,
     InterestRegionRow,
+    Meta,
     Run,
 )
 from store.records import (
@@ -55,6 +56,8 @@ _DIGEST_PREFIX = b"hadim-dataset-sha256-v1\n"
 # and auto-naming takes this advisory lock; SQLite's BEGIN IMMEDIATE serialises writes anyway.
 _LOCK_RUN_ROWS = "hadim_lock_run_rows"
 _AUTO_NAME_LOCK_KEY = 0x4841_4449_4D01
+_SWEEP_PREFIX = "sweep:"
+_META_KEY_MAX = 64
 # Rows that belong to one episode of a run; copied on fork up to the checkpoint's episode.
 _PER_EPISODE = (Episode, AffordanceEventRow, AffordanceStatRow, InterestRegionRow)
 
@@ -239,6 +242,42 @@ class Store:
             if holder is not None and self._stale(holder) is None:
                 raise RunLocked(f"cannot delete run {name!r}: {_describe(holder)}")
             session.execute(delete(Run).where(Run.id == row.id))
+
+    # ---------------------------------------------------------------- sweeps
+
+    def claim_sweep(self, name: str, settings: Mapping[str, Any]) -> bool:
+        """Record a sweep's settings under its name; True if new, False if the same settings
+        are already recorded. Other settings under a recorded name raise :class:`StoreError`
+        and change nothing. Kept in ``meta`` as ``sweep:NAME`` (no schema change)."""
+        key = f"{_SWEEP_PREFIX}{_check_name(name)}"
+        if len(key) > _META_KEY_MAX:
+            raise StoreError(f"sweep name {name!r} is too long")
+        wanted = codecs.encode_json(dict(settings))
+        with self.session_scope() as session:
+            if session.info.get(_LOCK_RUN_ROWS):
+                session.execute(text("SELECT pg_advisory_xact_lock(:key)"),
+                                {"key": _AUTO_NAME_LOCK_KEY})
+            stored = session.scalar(select(Meta.value).where(Meta.key == key))
+            if stored is None:
+                session.add(Meta(key=key, value=wanted))
+                return True
+            if stored != wanted:
+                raise StoreError(f"sweep {name!r} is in use in {self._where} with other "
+                                 "settings (configs, grid, seeds, iterations or evaluation): "
+                                 "give this one another name")
+            return False
+
+    def sweep_settings(self, name: str) -> dict[str, Any] | None:
+        """The settings a sweep was claimed with, or None for an unknown sweep."""
+        with self.session_scope(write=False) as session:
+            stored = session.scalar(select(Meta.value).where(Meta.key == f"{_SWEEP_PREFIX}{name}"))
+        return None if stored is None else codecs.decode_json(stored)
+
+    def sweeps(self) -> list[str]:
+        """The names of every claimed sweep, sorted."""
+        with self.session_scope(write=False) as session:
+            keys = session.scalars(select(Meta.key).where(Meta.key.like(f"{_SWEEP_PREFIX}%")))
+            return sorted(k[len(_SWEEP_PREFIX):] for k in keys)
 
     # -------------------------------------------------------------- episodes
 
