@@ -6,6 +6,7 @@ Each sweep starts its own small Ray instance (--num-cpus 2); runs are a few 50-a
 
 from __future__ import annotations
 
+import json
 import os
 import signal
 import subprocess
@@ -49,7 +50,7 @@ def four_runs(tmp_path_factory) -> Path:
     result = CliRunner().invoke(app, [
         "sweep", "four", "--seeds", "0-1", "-c", str(ROOT / "configs/random-only.toml"),
         "-c", str(ROOT / "configs/goal-babbling-only.toml"), "-n", "100", *SMALL,
-        "--store", str(store)])
+        "--eval-every", "100", "--set", 'evaluation.tasks=["move-robot"]', "--store", str(store)])
     assert result.exit_code == 0, (result.output, result.exception)
     return store
 
@@ -75,11 +76,37 @@ def test_rerun_skips_finished_runs(four_runs, runner):
     result = runner.invoke(app, [
         "sweep", "four", "--seeds", "0-1", "-c", str(ROOT / "configs/random-only.toml"),
         "-c", str(ROOT / "configs/goal-babbling-only.toml"), "-n", "100", *SMALL,
+        "--eval-every", "100", "--set", 'evaluation.tasks=["move-robot"]',
         "--store", str(four_runs)])
     assert result.exit_code == 0, result.output
     assert result.stdout.count("finished\t100/100") == 4
     with Store.open(four_runs, create=False) as st:
         assert {r.name: r.updated_at for r in st.list_runs()} == before
+
+
+def test_report_from_the_sweep(four_runs, runner, tmp_path):
+    out = tmp_path / "report"
+    result = runner.invoke(app, ["report", "four", "--out", str(out), "--store", str(four_runs)])
+    assert result.exit_code == 0, (result.output, result.exception)
+    runs = [f"four-{c}-s{s}" for c in ("random-only", "goal-babbling-only") for s in (0, 1)]
+    assert sorted(result.stdout.split()) == sorted(
+        [str(out / f) for f in ("summary.json", "tables.md", "competence.png")]
+        + [str(out / "timelines" / f"{r}.png") for r in runs])
+    for png in [out / "competence.png", *(out / "timelines").iterdir()]:
+        assert png.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+    summary = json.loads((out / "summary.json").read_text())
+    assert sorted(summary["configs"]) == ["goal-babbling-only", "random-only"]
+    with Store.open(four_runs, create=False) as st:
+        scores = [e.score for r in runs[:2] for e in st.evaluations(r)]
+        for run in runs:
+            assert summary["runs"][run]["dataset_sha256"] == st.dataset_sha256(run)
+    cell = summary["configs"]["random-only"]["move-robot"]["100"]
+    assert cell["n"] == 2 and cell["mean"] == pytest.approx(sum(scores) / 2)
+    tables = (out / "tables.md").read_text()
+    assert "| random-only | move-robot | " in tables and "four-random-only-s1 |" in tables
+    refused = runner.invoke(app, ["report", "nope", "--out", str(out), "--store", str(four_runs)])
+    assert refused.exit_code == 2
+    assert refused.stderr.strip() == f"error: no sweep named 'nope' in {four_runs} (sweeps: four)"
 
 
 def _start(tmp_path: Path, name: str, seeds: str) -> tuple[subprocess.Popen, Path]:
