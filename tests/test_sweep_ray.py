@@ -109,8 +109,9 @@ def test_report_from_the_sweep(four_runs, runner, tmp_path):
     assert refused.stderr.strip() == f"error: no sweep named 'nope' in {four_runs} (sweeps: four)"
 
 
-def _start(tmp_path: Path, name: str, seeds: str) -> tuple[subprocess.Popen, Path]:
-    store = tmp_path / "s.db"
+def _start(tmp_path: Path, name: str, seeds: str,
+           store: Path | str | None = None) -> tuple[subprocess.Popen, Path | str]:
+    store = store or tmp_path / "s.db"
     env = dict(os.environ, PYTHONPATH=str(ROOT))
     proc = subprocess.Popen(
         [sys.executable, "-m", "hadim_cli.app", "sweep", name, "--seeds", seeds, "-n", str(LONG),
@@ -119,7 +120,7 @@ def _start(tmp_path: Path, name: str, seeds: str) -> tuple[subprocess.Popen, Pat
     return proc, store
 
 
-def _wait_for(store: Path, proc: subprocess.Popen, ready, what: str):
+def _wait_for(store: Path | str, proc: subprocess.Popen, ready, what: str):
     deadline = time.monotonic() + 240
     while time.monotonic() < deadline:
         assert proc.poll() is None, proc.communicate()
@@ -153,8 +154,9 @@ def test_killed_worker_is_retried_from_its_checkpoint(runner, tmp_path):
     assert _digest(store, "kill-default-s3") == _one_by_one(runner, tmp_path, 3, LONG)
 
 
-def test_ctrl_c_pauses_every_run_checkpointed_and_a_rerun_finishes(tmp_path):
-    proc, store = _start(tmp_path, "stop", "3-4")
+def test_ctrl_c_pauses_every_run_checkpointed_and_a_rerun_finishes(tmp_path, postgres_url):
+    """On a PostgreSQL store, the shared store of a cluster."""
+    proc, store = _start(tmp_path, "stop", "3-4", postgres_url)
 
     def both_running(runs):
         return len([r for r in runs if r.lock and r.iterations > 0]) == 2
@@ -169,7 +171,7 @@ def test_ctrl_c_pauses_every_run_checkpointed_and_a_rerun_finishes(tmp_path):
             assert run.status == "paused" and run.lock is None, run
             assert 0 < run.iterations < LONG
             assert st.checkpoint_iterations(run.name)[-1] == run.iterations
-    again, _ = _start(tmp_path, "stop", "3-4")
+    again, _ = _start(tmp_path, "stop", "3-4", postgres_url)
     out, err = again.communicate(timeout=300)
     assert again.returncode == 0, err
     assert out.count(f"finished\t{LONG}/{LONG}") == 2
