@@ -92,3 +92,19 @@ def test_sweep_name_in_use_with_other_settings_changes_nothing(runner, tmp_path)
         assert st.sweep_settings("lab") == json.loads(json.dumps(plan.settings()))
         assert st.sweeps() == ["lab"]
     assert sqlite3.connect(store).execute("SELECT * FROM meta ORDER BY key").fetchall() == before
+
+
+def test_worker_refuses_a_hand_made_run_of_the_same_name_and_skips_when_stopped(tmp_path):
+    from hadim_cli.config import load_config
+    from hadim_cli.sweep.worker import run_entry
+
+    store = tmp_path / "s.db"
+    plan = build_plan("lab", configs=[], grid=[], sets=["world.episode_length=50"], seeds="0-1",
+                      iterations=100, eval_every=0)
+    with Store.open(store) as st:
+        st.create_run(config=load_config().to_dict(), seed=0, name="lab-default-s0")
+    with pytest.raises(HadimError, match="exists with another config or seed"):
+        run_entry(str(store), plan.entries[0], lambda: False)
+    assert run_entry(str(store), plan.entries[1], lambda: True).status == "skipped"
+    with Store.open(store, create=False) as st:
+        assert [(r.name, r.iterations) for r in st.list_runs()] == [("lab-default-s0", 0)]

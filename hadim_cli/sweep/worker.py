@@ -7,11 +7,13 @@ worker was killed) or a re-run sweep loses at most the episode that was in progr
 
 from __future__ import annotations
 
+import json
 import signal
 import time
 from collections.abc import Callable
 from dataclasses import dataclass
 
+from hadim_cli.errors import HadimError
 from hadim_cli.sweep.plan import RunKind, SweepEntry
 
 # A holder on another host is stale only after the store's lock timeout: wait that long.
@@ -96,13 +98,16 @@ def _existing_or_new(store, entry: SweepEntry, config):
     from store.errors import StoreError, UnknownRun
 
     try:
-        return store.get_run(entry.run)
+        record = store.get_run(entry.run)
     except UnknownRun:
-        pass
-    try:
-        return runs.new_run(store, config, entry.seed, entry.run)
-    except StoreError:  # created meanwhile by a retry of this task
-        return store.get_run(entry.run)
+        try:
+            return runs.new_run(store, config, entry.seed, entry.run)
+        except StoreError:  # created meanwhile by a retry of this task
+            record = store.get_run(entry.run)
+    if record.seed != entry.seed or record.config != json.loads(json.dumps(entry.config)):
+        raise HadimError(f"run {entry.run} exists with another config or seed than this sweep "
+                         "gives it (made by hand?): rename or delete it")
+    return record
 
 
 def _acquire(store, run: str, owner: str) -> None:
