@@ -13,7 +13,17 @@ from typing import Annotated, Any
 import typer
 from typer.core import TyperGroup
 
-from hadim_cli.commands import baseline, bench, config_cmd, inspect, store_cmd, training, world
+from hadim_cli.commands import (
+    baseline,
+    bench,
+    config_cmd,
+    inspect,
+    report_cmd,
+    store_cmd,
+    sweep_cmd,
+    training,
+    world,
+)
 from hadim_cli.errors import HadimError
 from store.errors import StoreError
 
@@ -114,6 +124,8 @@ def _root(
 
 app.registered_commands += training.app.registered_commands
 app.registered_commands += inspect.app.registered_commands
+app.registered_commands += sweep_cmd.app.registered_commands
+app.registered_commands += report_cmd.app.registered_commands
 app.add_typer(inspect.runs_app, name="runs")
 app.add_typer(config_cmd.app, name="config")
 app.add_typer(world.app, name="world")

@@ -15,7 +15,7 @@ from pathlib import Path
 from typing import Any, NamedTuple
 
 import numpy as np
-from sqlalchemy import Engine, Select, delete, func, insert, literal, select, update
+from sqlalchemy import Engine, Select, delete, func, insert, literal, select, text, update
 from sqlalchemy.exc import IntegrityError
 from sqlalchemy.orm import Session, sessionmaker
 
@@ -30,6 +30,7 @@ from store.models import (
     Episode,
     EvaluationRow,
     InterestRegionRow,
+    Meta,
     Run,
 )
 from store.records import (
@@ -51,6 +52,12 @@ _AUTO_NAME_RE = re.compile(r"run-(\d+)")
 _MAX_SEED = 2**63 - 1
 _KIND_MAX = 32
 _DIGEST_PREFIX = b"hadim-dataset-sha256-v1\n"
+# On a database server, write scopes lock the rows of the runs they touch (SELECT … FOR UPDATE)
+# and auto-naming takes this advisory lock; SQLite's BEGIN IMMEDIATE serialises writes anyway.
+_LOCK_RUN_ROWS = "hadim_lock_run_rows"
+_AUTO_NAME_LOCK_KEY = 0x4841_4449_4D01
+_SWEEP_PREFIX = "sweep:"
+_META_KEY_MAX = 64
 # Rows that belong to one episode of a run; copied on fork up to the checkpoint's episode.
 _PER_EPISODE = (Episode, AffordanceEventRow, AffordanceStatRow, InterestRegionRow)
 
@@ -159,6 +166,9 @@ class Store:
         try:
             if write and self._sqlite:
                 session.connection(execution_options={engines.BEGIN_MODE_OPTION: "IMMEDIATE"})
+            elif write:
+                # A server has no database-wide write lock: writes lock the run's row instead.
+                session.info[_LOCK_RUN_ROWS] = True
             yield session
             session.commit()
         except BaseException:
@@ -232,6 +242,42 @@ class Store:
             if holder is not None and self._stale(holder) is None:
                 raise RunLocked(f"cannot delete run {name!r}: {_describe(holder)}")
             session.execute(delete(Run).where(Run.id == row.id))
+
+    # ---------------------------------------------------------------- sweeps
+
+    def claim_sweep(self, name: str, settings: Mapping[str, Any]) -> bool:
+        """Record a sweep's settings under its name; True if new, False if the same settings
+        are already recorded. Other settings under a recorded name raise :class:`StoreError`
+        and change nothing. Kept in ``meta`` as ``sweep:NAME`` (no schema change)."""
+        key = f"{_SWEEP_PREFIX}{_check_name(name)}"
+        if len(key) > _META_KEY_MAX:
+            raise StoreError(f"sweep name {name!r} is too long")
+        wanted = codecs.encode_json(dict(settings))
+        with self.session_scope() as session:
+            if session.info.get(_LOCK_RUN_ROWS):
+                session.execute(text("SELECT pg_advisory_xact_lock(:key)"),
+                                {"key": _AUTO_NAME_LOCK_KEY})
+            stored = session.scalar(select(Meta.value).where(Meta.key == key))
+            if stored is None:
+                session.add(Meta(key=key, value=wanted))
+                return True
+            if stored != wanted:
+                raise StoreError(f"sweep {name!r} is in use in {self._where} with other "
+                                 "settings (configs, grid, seeds, iterations or evaluation): "
+                                 "give this one another name")
+            return False
+
+    def sweep_settings(self, name: str) -> dict[str, Any] | None:
+        """The settings a sweep was claimed with, or None for an unknown sweep."""
+        with self.session_scope(write=False) as session:
+            stored = session.scalar(select(Meta.value).where(Meta.key == f"{_SWEEP_PREFIX}{name}"))
+        return None if stored is None else codecs.decode_json(stored)
+
+    def sweeps(self) -> list[str]:
+        """The names of every claimed sweep, sorted."""
+        with self.session_scope(write=False) as session:
+            keys = session.scalars(select(Meta.key).where(Meta.key.like(f"{_SWEEP_PREFIX}%")))
+            return sorted(k[len(_SWEEP_PREFIX):] for k in keys)
 
     # -------------------------------------------------------------- episodes
 
@@ -674,7 +720,10 @@ class Store:
 
 
 def _run_row(session: Session, name: str) -> Run:
-    row = session.scalar(select(Run).where(Run.name == name))
+    query = select(Run).where(Run.name == name)
+    if session.info.get(_LOCK_RUN_ROWS):
+        query = query.with_for_update()
+    row = session.scalar(query)
     if row is not None:
         return row
     names = list(session.scalars(select(Run.name)))
@@ -687,6 +736,8 @@ def _run_row(session: Session, name: str) -> Run:
 
 
 def _next_auto_name(session: Session) -> str:
+    if session.info.get(_LOCK_RUN_ROWS):  # two creators must not both pick run-N
+        session.execute(text("SELECT pg_advisory_xact_lock(:key)"), {"key": _AUTO_NAME_LOCK_KEY})
     numbers = [
         int(match.group(1))
         for candidate in session.scalars(select(Run.name).where(Run.name.like("run-%")))

@@ -5,11 +5,13 @@ set-up (WAL, busy timeout, foreign keys on SQLite) and schema creation or migrat
 from __future__ import annotations
 
 import sqlite3
+from collections.abc import Iterator
+from contextlib import contextmanager
 from pathlib import Path
 
-from sqlalchemy import Connection, Engine, create_engine, event, inspect, select
+from sqlalchemy import Connection, Engine, create_engine, event, inspect, select, text
 from sqlalchemy.engine import URL, make_url
-from sqlalchemy.exc import ArgumentError, DBAPIError
+from sqlalchemy.exc import ArgumentError, DBAPIError, NoSuchModuleError, OperationalError
 from sqlalchemy.pool import StaticPool
 
 from store import migrations
@@ -24,14 +26,20 @@ BEGIN_MODE_OPTION = "hadim_sqlite_begin"
 
 
 def resolve_url(url: str | Path) -> URL:
-    """A SQLAlchemy URL from a URL string or a plain file path (``:memory:`` for memory)."""
+    """A SQLAlchemy URL from a URL string or a plain file path (``:memory:`` for memory).
+
+    ``postgresql://`` without a driver means psycopg 3, the driver hadim installs.
+    """
     if isinstance(url, Path) or "://" not in url:
         path = str(url)
         return make_url("sqlite://" if path == ":memory:" else f"sqlite:///{path}")
     try:
-        return make_url(url)
+        resolved = make_url(url)
     except ArgumentError as exc:
         raise StoreError(f"not a store URL or path: {url!r} ({exc})") from exc
+    if resolved.drivername == "postgresql":
+        resolved = resolved.set(drivername="postgresql+psycopg")
+    return resolved
 
 
 def is_sqlite(url: URL) -> bool:
@@ -138,7 +146,7 @@ def read_schema_version(conn: Connection, where: str) -> int | None:
 def make_engine(url: URL) -> Engine:
     """One engine for one store object; SQLite gets WAL, busy timeout and foreign keys."""
     if not is_sqlite(url):
-        return create_engine(url, pool_pre_ping=True)
+        return _server_engine(url)
     in_memory = sqlite_file(url) is None
     if in_memory:
         # One shared connection, or each new connection would see its own empty database.
@@ -167,9 +175,12 @@ def make_engine(url: URL) -> Engine:
 
 def prepare_schema(engine: Engine, where: str, *, create: bool) -> None:
     """Create the tables in an empty database, or migrate an older schema, in one transaction."""
-    with engine.connect() as conn:
+    with _server_errors(engine, where), engine.connect() as conn:
         conn = conn.execution_options(**{BEGIN_MODE_OPTION: "IMMEDIATE"})
         with conn.begin():
+            if is_postgresql(engine.url):
+                # Processes opening a new server store at once: one creates, the others wait.
+                conn.execute(text("SELECT pg_advisory_xact_lock(:key)"), {"key": SCHEMA_LOCK_KEY})
             version = read_schema_version(conn, where)
             if version is None:
                 if not create:
@@ -184,6 +195,43 @@ def prepare_schema(engine: Engine, where: str, *, create: bool) -> None:
                 )
             elif version < migrations.SCHEMA_VERSION:
                 _migrate(conn, version, where)
+
+
+# --- database servers (PostgreSQL): engine, one-line errors -------------------------------
+# Arbitrary, fixed: the advisory lock serialising schema creation on a server.
+SCHEMA_LOCK_KEY = 0x4841_4449_4D00
+
+
+def is_postgresql(url: URL) -> bool:
+    return url.get_backend_name() == "postgresql"
+
+
+def _server_engine(url: URL) -> Engine:
+    """An engine for a database server; an unknown scheme or missing driver is one line."""
+    try:
+        return create_engine(url, pool_pre_ping=True)
+    except (NoSuchModuleError, ArgumentError, ImportError) as exc:
+        shown = url.render_as_string(hide_password=True)
+        raise StoreError(
+            f"cannot use store URL {shown}: {_first_line(exc)} (use a file path, "
+            "sqlite:///FILE or postgresql+psycopg://USER@HOST/DATABASE)"
+        ) from exc
+
+
+@contextmanager
+def _server_errors(engine: Engine, where: str) -> Iterator[None]:
+    """A server that cannot be reached or refuses us is the user's problem: one line."""
+    try:
+        yield
+    except OperationalError as exc:
+        if is_sqlite(engine.url):
+            raise
+        raise StoreError(f"cannot open the store at {where}: {_first_line(exc.orig)}") from exc
+
+
+def _first_line(exc: BaseException | None) -> str:
+    lines = str(exc).strip().splitlines()
+    return lines[0] if lines else type(exc).__name__
 
 
 def _migrate(conn: Connection, version: int, where: str) -> None:

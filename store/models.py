@@ -9,6 +9,7 @@ from __future__ import annotations
 from datetime import datetime
 
 from sqlalchemy import (
+    BigInteger,
     DateTime,
     Float,
     ForeignKey,
@@ -43,7 +44,8 @@ class Run(Base):
     id: Mapped[int] = mapped_column(Integer, primary_key=True)
     name: Mapped[str] = mapped_column(String(64), unique=True)
     status: Mapped[str] = mapped_column(String(16))
-    seed: Mapped[int] = mapped_column(Integer)
+    # 64-bit seeds: BIGINT on servers; SQLite's INTEGER is 64-bit already (DDL unchanged).
+    seed: Mapped[int] = mapped_column(Integer().with_variant(BigInteger(), "postgresql"))
     config_json: Mapped[str] = mapped_column(Text)
     parent_id: Mapped[int | None] = mapped_column(ForeignKey(_RUN_FK, ondelete="SET NULL"))
     fork_iteration: Mapped[int | None] = mapped_column(Integer)

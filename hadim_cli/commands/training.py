@@ -4,7 +4,6 @@ from __future__ import annotations
 
 import shlex
 import signal
-import threading
 from contextlib import contextmanager
 from typing import Annotated
 
@@ -12,6 +11,7 @@ import typer
 
 from hadim_cli.commands.common import ConfigOption, SetOption, StoreOption
 from hadim_cli.errors import HadimError
+from hadim_cli.heartbeat import keep_alive as _heartbeat
 
 app = typer.Typer()
 
@@ -41,32 +41,6 @@ def _interruptible():
         yield (lambda: flag["stop"]), disarm
     finally:
         signal.signal(signal.SIGINT, previous)
-
-
-@contextmanager
-def _heartbeat(store, run_name: str, owner: str):
-    """Refresh the run's lock from a thread: a long episode or evaluation must not let another
-    process take the lock over as stale (no heartbeat for `store.lock_timeout` seconds)."""
-    from store.errors import RunLocked
-
-    stop = threading.Event()
-
-    def beat() -> None:
-        while not stop.wait(max(store.lock_timeout / 4, 0.05)):
-            try:
-                store.heartbeat(run_name, owner)
-            except RunLocked:
-                return  # lost: the next write_episode refuses and says so
-            except Exception:  # noqa: BLE001 — a busy store: try again at the next beat
-                continue
-
-    thread = threading.Thread(target=beat, name=f"hadim-heartbeat-{run_name}", daemon=True)
-    thread.start()
-    try:
-        yield
-    finally:
-        stop.set()
-        thread.join()
 
 
 def _resume_hint(run_name: str, total: int, store_option: str | None) -> str:

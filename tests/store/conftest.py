@@ -1,4 +1,5 @@
-"""The store contract suite runs against every backend: in-memory SQLite and file SQLite."""
+"""The store contract suite runs against every backend: in-memory SQLite, file SQLite and a
+real PostgreSQL server (started once per test session by tests/conftest.py's `postgres`)."""
 
 from __future__ import annotations
 
@@ -25,18 +26,20 @@ from store import (  # noqa: E402
     Store,
 )
 
-BACKENDS = ["memory", "file"]
+BACKENDS = ["memory", "file", "postgresql"]
 
 
-def open_backend(kind: str, tmp_path: Path, **options) -> Store:
+def open_backend(kind: str, request: pytest.FixtureRequest, tmp_path: Path, **options) -> Store:
     if kind == "memory":
         return Store.open("sqlite://", **options)
+    if kind == "postgresql":
+        return Store.open(request.getfixturevalue("postgres_url"), **options)
     return Store.open(tmp_path / "store.db", **options)
 
 
 @pytest.fixture(params=BACKENDS)
 def store(request: pytest.FixtureRequest, tmp_path: Path) -> Iterator[Store]:
-    with open_backend(request.param, tmp_path) as opened:
+    with open_backend(request.param, request, tmp_path) as opened:
         yield opened
 
 

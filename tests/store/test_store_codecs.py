@@ -10,6 +10,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from sqlalchemy import text
 
 from store import CodecError, codecs
 
@@ -63,7 +64,7 @@ def test_pickled_object_array_refused_without_running(store, make_episode):
     store.create_run(config={}, seed=1)
     store.write_episode("run-1", make_episode(0, 0))
     with store.engine.begin() as conn:
-        conn.exec_driver_sql("UPDATE checkpoint_items SET kind = 'npy', data = ?", (blob,))
+        conn.execute(text("UPDATE checkpoint_items SET kind = 'npy', data = :blob"), {"blob": blob})
     with pytest.raises(CodecError):
         store.checkpoint("run-1")
 

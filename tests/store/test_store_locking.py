@@ -7,6 +7,7 @@ import sys
 import time
 
 import pytest
+from sqlalchemy import text
 
 from store import RunLocked, StoreError
 
@@ -21,10 +22,11 @@ def _set_holder(store, name, *, pid, heartbeat, host=None, owner="someone-else")
     from store.locking import this_host
 
     with store.engine.begin() as conn:
-        conn.exec_driver_sql(
-            "UPDATE runs SET lock_owner = ?, lock_pid = ?, lock_host = ?, lock_heartbeat = ?"
-            " WHERE name = ?",
-            (owner, pid, host or this_host(), heartbeat, name),
+        conn.execute(
+            text("UPDATE runs SET lock_owner = :owner, lock_pid = :pid, lock_host = :host,"
+                 " lock_heartbeat = :heartbeat WHERE name = :name"),
+            {"owner": owner, "pid": pid, "host": host or this_host(), "heartbeat": heartbeat,
+             "name": name},
         )
 
 
