@@ -5,8 +5,9 @@
 
 Each bug replaces one exact piece of source (it must occur once), runs the tests named for it
 with this checkout on PYTHONPATH, and restores the file whatever happens. A bug whose tests
-all pass is reported MISSED and the exit status is 1. The table in docs/testing.md is this
-list; keep them together.
+all pass is reported MISSED (one that breaks the import, BROKEN); either makes the exit
+status 1. `pytest -m slow tests/test_planted_bugs.py` runs the same list. The table in
+docs/testing.md is this list; keep them together.
 """
 
 from __future__ import annotations
@@ -74,7 +75,7 @@ BUGS = (
         "        aff.rows = aff.rows.concat(rows)\n", "",
         f"{STEPS}::test_rows_that_do_not_match_trigger_a_context_search"),
     Bug("context-add-never", "hadim_cli/learner/adaptation.py",
-        "            options.append((EventKind.CONTEXT_ADDED, (*current, c), {\"added\": c.name})",
+        "            options.append((EventKind.CONTEXT_ADDED, (*current, c), {\"added\": c.name}))",
         "            pass",
         f"{STEPS}::test_a_context_change_reaches_the_context_the_data_need"),
     Bug("context-replace-never", "hadim_cli/learner/adaptation.py",
@@ -152,8 +153,9 @@ BUGS = (
 )
 
 
-def plant(bug: Bug) -> bool:
-    """True if the tests caught `bug`."""
+def plant(bug: Bug) -> str:
+    """'caught' if the tests failed on `bug`, 'MISSED' if they passed, 'BROKEN' if they could
+    not run (the bug does not even import: it proves nothing)."""
     path = ROOT / bug.path
     source = path.read_text()
     if source.count(bug.old) != 1:
@@ -167,7 +169,7 @@ def plant(bug: Bug) -> bool:
                                 capture_output=True, text=True)
     finally:
         path.write_text(source)
-    return result.returncode == 1
+    return {0: "MISSED", 1: "caught"}.get(result.returncode, "BROKEN")
 
 
 def main(names: list[str]) -> int:
@@ -178,9 +180,9 @@ def main(names: list[str]) -> int:
         return 2
     missed = []
     for bug in chosen:
-        caught = plant(bug)
-        print(f"{'caught' if caught else 'MISSED':7s} {bug.name}", flush=True)
-        if not caught:
+        verdict = plant(bug)
+        print(f"{verdict:7s} {bug.name}", flush=True)
+        if verdict != "caught":
             missed.append(bug.name)
     return 1 if missed else 0
 
