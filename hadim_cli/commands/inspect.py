@@ -65,10 +65,12 @@ def runs_show(run: RunArg, store: StoreOption = None, as_json: JsonOption = Fals
         latest: dict[str, float] = {}
         for e in st.evaluations(run):
             latest[e.task] = e.score
+        sigma = r.config.get("learner", {}).get("sigma")
+        babbling = runs.goal_babbling_share([e.extra for e in st.episodes(run)], sigma)
         info = {
             "name": r.name, "status": r.status.value, "iterations": r.iterations,
             "seed": r.seed, "parent": r.parent, "fork_iteration": r.fork_iteration,
-            "affordances": n_aff, "scores": latest,
+            "affordances": n_aff, "scores": latest, "goal_babbling": babbling,
             "dataset_sha256": st.dataset_sha256(run),
             "lock": None if r.lock is None else {
                 "owner": r.lock.owner, "pid": r.lock.pid, "host": r.lock.host,

@@ -22,7 +22,7 @@ from handmade import (
 )
 
 from hadim_cli.learner.adaptation import CreationBackoff
-from hadim_cli.learner.explorer import Mode
+from hadim_cli.learner.explorer import Fallback, Mode
 from hadim_cli.learner.hierarchy import EventKind
 from hadim_cli.learner.planner import Attempt
 from hadim_cli.learner.spaces import ACTION, Rows
@@ -296,10 +296,25 @@ def test_a_goal_attempt_that_cannot_be_planned_falls_back_to_random_babbling(mon
     aff = room.affordance(room.moves(rng, 100), (ROBOT_HEADING,))
     _planner_that_tries(room, monkeypatch, actions=0)
     actuator = FakeActuator(room.obs.copy())
-    episode = room.learner.learning_episode(actuator, rng)
-    assert episode.mode is not Mode.GOAL
-    assert actuator.actions > 0  # the episode still explores
+    episodes = [room.learner.learning_episode(actuator, rng) for _ in range(20)]
+    assert all(e.mode is not Mode.GOAL and e.drawn is Mode.GOAL for e in episodes)
+    assert actuator.actions > 0  # the episodes still explore
     assert aff.interest.n_goals == 0  # nothing was attempted: nothing recorded
+    # Each fallback is on record: goal babbling, then (a random controllable value, as
+    # unplannable) a random action; or a random primitive sequence straight away.
+    assert {e.fallbacks for e in episodes} == {
+        (Fallback.GOAL_NO_PLAN,), (Fallback.GOAL_NO_PLAN, Fallback.RANDOM_NO_PLAN)}
+    assert all(e.mode is Mode.RANDOM_ACTION for e in episodes)
+
+
+def test_goal_babbling_without_an_object_to_bind_is_a_recorded_fallback(monkeypatch):
+    room = Room(sigma=1.0)
+    rng = np.random.default_rng(0)
+    room.affordance(np.zeros(0, dtype=np.int64), (), inp=ROBOT_POSITION, out=TARGET_POSITION)
+    monkeypatch.setattr(room.learner, "select_binding", lambda aff, obs: None)
+    episode = room.learner.learning_episode(FakeActuator(room.obs.copy()), rng)
+    assert episode.drawn is Mode.GOAL
+    assert episode.fallbacks[0] is Fallback.GOAL_NO_OBJECT
 
 
 # ---------------------------------------------------------------------- p_A labels
@@ -368,3 +383,24 @@ def test_object_selection_takes_the_closest_object_p_a_accepts():
     tool.classifier = SimpleNamespace(n_positive=1, accepts=lambda f: f[:, 0] < 0.45)  # small
     binding = room.learner.select_binding(tool, room.obs)
     assert (binding.target, binding.tool) == (3, 1)  # obj2, red, is no tool of the pusher's
+
+
+def test_the_effective_share_of_goal_babbling_counts_the_fallbacks():
+    from hadim_cli.runs import goal_babbling_share
+
+    def le(drawn, mode, *fallbacks):
+        return {"drawn": drawn, "mode": mode, "fallbacks": list(fallbacks)}
+
+    extras = [{"learning_episodes": [le("goal", "goal"), le("goal", "random-action",
+                                                           "goal-no-plan", "random-no-plan")]},
+              {"learning_episodes": [le("random-controllable", "random-action"),
+                                     le("goal", "random-controllable", "goal-no-object")]}]
+    share = goal_babbling_share(extras, 0.7)
+    assert share == {"sigma": 0.7, "learning_episodes": 4, "drawn": 0.75, "effective": 0.25,
+                     "fallbacks": {"goal-no-object": 1, "goal-no-plan": 1,
+                                   "random-no-plan": 1}}
+    # Episodes stored before the draw was recorded: the effective share only.
+    old = [{"learning_episodes": [{"mode": "goal"}, {"mode": "random-action"}]}]
+    assert goal_babbling_share(old, 0.7) == {"sigma": 0.7, "learning_episodes": 2,
+                                             "drawn": None, "effective": 0.5,
+                                             "fallbacks": None}
