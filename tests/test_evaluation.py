@@ -4,7 +4,7 @@ import numpy as np
 import pytest
 
 from hadim_cli.errors import HadimError
-from hadim_cli.evaluation.metric import point_error, task_score
+from hadim_cli.evaluation.metric import distance_error, point_error, task_score
 from hadim_cli.evaluation.tasks import load_task, load_task_file, task_names
 
 
@@ -13,6 +13,9 @@ def test_metric():
     assert point_error((0, 0), (1, 0), (1, 0)) == 0.0  # reached
     assert point_error((0, 0), (0.5, 0), (1, 0)) == pytest.approx(0.5)
     assert point_error((0, 0), (-3, 0), (1, 0)) == 1.0  # worse is capped
+    # A goal reached at the start: kept is 0, left is 1 (the one goal score near zero).
+    assert distance_error(0.0, 0.0) == 0.0 and distance_error(0.0, 0.1) == 1.0
+    assert point_error((1, 0), (1.2, 0), (1, 0)) == 1.0
     assert task_score([1.0, 1.0]) == 0.0
     assert task_score([0.0, 0.0]) == 1.0
     with pytest.raises(ValueError):

@@ -13,7 +13,7 @@ import numpy as np
 
 from hadim_cli.config import LearnerConfig
 from hadim_cli.learner.classifier import VisualClassifier
-from hadim_cli.learner.competence import model_competence, range_scale
+from hadim_cli.learner.competence import model_competence, range_scale, split_zero
 from hadim_cli.learner.dataset import Dataset
 from hadim_cli.learner.frames import FramedModel, relation_frame
 from hadim_cli.learner.interest import InterestMap
@@ -126,8 +126,7 @@ class Fitter:
         rows = self.bindings(roles, t)
         sample = self.values(inp, out, (), rows)
         if inp is not ACTION:
-            moved = np.linalg.norm(sample.x, axis=1) > self.config.zero_eps
-            sample = sample.take(np.flatnonzero(moved))
+            sample = sample.take(np.flatnonzero(self.nonzero(sample.x)))
         if Role.TOOL in roles:
             # Through a tool means not by the robot's own body: a target the robot touches is
             # the direct pushing affordance's outcome, and would hide the tool's relation.
@@ -157,7 +156,9 @@ class Fitter:
         return rows, self.nonzero(self.reader.read(space, self.dataset.outcomes, rows))
 
     def nonzero(self, y: np.ndarray) -> np.ndarray:
-        return np.linalg.norm(y, axis=1) > self.config.zero_eps
+        """Rows where something moved: the complement of `competence.split_zero`, the one
+        "nothing moved" rule (‖y‖ ≤ `zero_eps`)."""
+        return ~split_zero(y, self.config.zero_eps)
 
     def select_rows(self, sample: Sample, rng: np.random.Generator,
                     accept: np.ndarray | None = None) -> Rows:
