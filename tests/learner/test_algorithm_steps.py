@@ -352,15 +352,16 @@ def test_p_a_is_taught_movers_as_positives_the_robot_and_in_vain_pushes_as_negat
     assert label_of(3) == []  # never touched: no example
 
 
-def room_push(room: Room, obj: str, angle: float, moves: bool) -> None:
-    """The robot at the origin, in contact behind `obj`, drives 0.1 m along `angle`."""
+def room_push(room: Room, obj: str, angle: float, moves: bool, blocked: bool = False) -> None:
+    """The robot at the origin, in contact behind `obj`, drives 0.1 m along `angle` (or,
+    `blocked`, tries to: neither moves)."""
     u = np.array([np.cos(angle), np.sin(angle)])
     room.place("robot", [0.0, 0.0])
     room.set("robot", Property.HEADING, u)
     parked = room.obs[room.layout.space(obj, Property.POSITION).slice].copy()
     room.place(obj, 0.27 * u)
     before = room.obs.copy()
-    room.place("robot", 0.1 * u)
+    room.place("robot", 0.0 if blocked else 0.1 * u)
     room.place(obj, 0.27 * u + (0.09 * u if moves else 0.0))
     room.dataset.append(np.array([1.0, 1.0]), before, room.obs.copy())
     room.place(obj, parked)
@@ -404,3 +405,39 @@ def test_the_effective_share_of_goal_babbling_counts_the_fallbacks():
     assert goal_babbling_share(old, 0.7) == {"sigma": 0.7, "learning_episodes": 2,
                                              "drawn": None, "effective": 0.5,
                                              "fallbacks": None}
+
+
+@pytest.mark.parametrize("on", [False, True])
+def test_an_object_that_stops_the_robot_teaches_p_a_with_blocked_pushes(on):
+    """A red object the robot drives into stops it: the pushing affordance's input (the
+    robot's displacement) did not change, so the row is outside its domain. With
+    `p_a_blocked_pushes`, the robot's motion model says the robot meant to move into it, the
+    push model says that would have pushed it, and it becomes a negative of p_A."""
+    room = Room(p_a_blocked_pushes=on)
+    rng = np.random.default_rng(0)
+    room.episode()
+    room.affordance(room.moves(rng, 300), (ROBOT_HEADING,))  # the robot's motion model
+    start = len(room.dataset)
+    for a in np.linspace(0, 2 * np.pi, 30, endpoint=False):
+        room_push(room, "obj1", a, moves=True)
+    t = np.arange(start, len(room.dataset), dtype=np.int64)
+    push = room.affordance(t, (TARGET_ROBOT,), inp=ROBOT_POSITION, out=TARGET_POSITION)
+    push.rows = Rows(t, np.full(t.size, 1), np.full(t.size, -1))
+    push.model = room.fitter.fit(push.input, push.output, push.contexts, push.rows)
+    room.episode()
+    start = len(room.dataset)
+    room_push(room, "obj1", 0.0, moves=True)
+    room_push(room, "obj2", 0.0, moves=False, blocked=True)  # red: stops the robot
+    blocked = room.adaptation._blocked_in_vain(push, np.arange(start, len(room.dataset)))
+    if not on:
+        assert blocked is None
+        return
+    assert blocked is not None and blocked.target.tolist() == [2]
+    seen: list[tuple[np.ndarray, np.ndarray]] = []
+    push.classifier.add = lambda f, y: seen.append((f.copy(), y.copy()))
+    push.classifier.train = lambda rng, steps: 0.0
+    room.adaptation._update(push, np.arange(start, len(room.dataset)), len(room.dataset), rng)
+    features, labels = seen[-1]
+    red = room.learner.reader.visual_features(room.obs, 2)
+    assert [bool(y) for f, y in zip(features, labels, strict=True) if np.allclose(f, red)] == \
+        [False]
