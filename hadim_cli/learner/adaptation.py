@@ -83,8 +83,20 @@ class Adaptation:
             for aff in self.h.with_output(space):
                 self._update(aff, t, iteration, rng)
             self._try_create(space, iteration, episode, rng)
+        if self.config.p_a_blocked_pushes:
+            # Driving into a fixed object moves nothing: no space is non-null, no affordance is
+            # updated, and yet p_A has something to learn from it.
+            for aff in self.h:
+                if aff.output not in spaces:
+                    self._teach_blocked(aff, t, rng)
         self._delete_false(iteration)
         return self.h.events[start:]
+
+    def _teach_blocked(self, aff: Affordance, t: np.ndarray, rng: np.random.Generator) -> None:
+        blocked = self._blocked_in_vain(aff, t)
+        if blocked is not None and len(blocked):
+            none = self.fitter.candidate_rows(aff.input, aff.output, t[:0])
+            self._train_classifier(aff, none, rng, blocked)
 
     # ------------------------------------------------------------------ existing affordances
     def _accept_mask(self, aff: Affordance, sample: Sample) -> np.ndarray | None:

@@ -441,3 +441,27 @@ def test_an_object_that_stops_the_robot_teaches_p_a_with_blocked_pushes(on):
     red = room.learner.reader.visual_features(room.obs, 2)
     assert [bool(y) for f, y in zip(features, labels, strict=True) if np.allclose(f, red)] == \
         [False]
+
+
+def test_a_blocked_push_in_an_episode_where_nothing_moved_still_teaches_p_a(monkeypatch):
+    """Nothing moved in the learning episode (the robot drove into a red object): no output
+    space is non-null, no affordance is updated, and p_A still gets its negative."""
+    room = Room(p_a_blocked_pushes=True)
+    rng = np.random.default_rng(0)
+    room.episode()
+    room.affordance(room.moves(rng, 300), (ROBOT_HEADING,))
+    start = len(room.dataset)
+    for a in np.linspace(0, 2 * np.pi, 30, endpoint=False):
+        room_push(room, "obj1", a, moves=True)
+    t = np.arange(start, len(room.dataset), dtype=np.int64)
+    push = room.affordance(t, (TARGET_ROBOT,), inp=ROBOT_POSITION, out=TARGET_POSITION)
+    push.rows = Rows(t, np.full(t.size, 1), np.full(t.size, -1))
+    push.model = room.fitter.fit(push.input, push.output, push.contexts, push.rows)
+    taught: list[np.ndarray] = []
+    monkeypatch.setattr(push.classifier, "add", lambda f, y: taught.append(y.copy()))
+    monkeypatch.setattr(push.classifier, "train", lambda rng, steps: 0.0)
+    room.episode()
+    start = len(room.dataset)
+    room_push(room, "obj2", 0.0, moves=False, blocked=True)
+    room.adaptation.run(start, len(room.dataset), len(room.dataset), 0, rng)
+    assert [y.tolist() for y in taught] == [[False, False]]  # the red object, the robot
