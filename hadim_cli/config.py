@@ -222,6 +222,13 @@ class LearnerConfig:
     """Width of the two hidden layers of each visual classifier p_A."""
     classifier_steps: int = 30
     """Training steps of p_A after each learning episode that gave it examples."""
+    p_a_blocked_pushes: bool = False
+    """Also teach p_A of an affordance acting from the robot's motion (`robot.position →
+    target.position`) the objects that *stopped* the robot: touched, the robot's motion model
+    predicting a move that would have pushed them, neither moving — in every learning
+    episode, including those where nothing moved. Such rows are outside the affordance's
+    domain (its input did not change), so without this its p_A hardly ever sees a red object
+    as a negative (docs/algorithm.md, p_A). Off: not measured enough to be the default."""
 
     def validate(self) -> None:
         for name in ("sigma", "match_tolerance", "context_gain", "interest_epsilon",

@@ -158,7 +158,8 @@ def episode_write(session: Session, log: EpisodeLog) -> EpisodeWrite:
     meta, arrays = session_state(session)
     extra = {"learning_episodes": [
         {"mode": le.mode.value, "start": le.start, "stop": le.stop,
-         "affordance": le.affordance_id, "goal": list(le.goal), "competence": le.competence}
+         "affordance": le.affordance_id, "goal": list(le.goal), "competence": le.competence,
+         "drawn": le.drawn.value, "fallbacks": [f.value for f in le.fallbacks]}
         for le in log.learning]}
     return EpisodeWrite(
         index=log.index, first_iteration=log.start,
@@ -166,6 +167,26 @@ def episode_write(session: Session, log: EpisodeLog) -> EpisodeWrite:
         outcomes=d.outcomes[log.start:stop].copy(), extra=extra, events=events, stats=stats,
         regions=regions, checkpoint_arrays=arrays, checkpoint_json=meta,
     )
+
+
+def goal_babbling_share(extras: list[dict[str, Any]], sigma: float) -> dict[str, Any]:
+    """How much goal babbling a run did, from its episodes' `extra` records: σ (configured),
+    the share of learning episodes σ's draw sent to goal babbling (`drawn`), the share that
+    did goal babbling (`effective`), and each fallback's count. `drawn` and `fallbacks` are
+    None for episodes stored before they were recorded."""
+    learning = [le for extra in extras for le in extra.get("learning_episodes", [])]
+    n = len(learning)
+    recorded = bool(learning) and all("drawn" in le for le in learning)
+    counts: dict[str, int] = {}
+    for le in learning:
+        for why in le.get("fallbacks", ()):
+            counts[why] = counts.get(why, 0) + 1
+    return {
+        "sigma": sigma, "learning_episodes": n,
+        "drawn": (sum(le["drawn"] == "goal" for le in learning) / n) if recorded else None,
+        "effective": (sum(le["mode"] == "goal" for le in learning) / n) if n else None,
+        "fallbacks": dict(sorted(counts.items())) if recorded else None,
+    }
 
 
 # --------------------------------------------------------------------------- training

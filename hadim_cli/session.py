@@ -56,6 +56,12 @@ class Session:
     """World + learner + generators; runs environment episodes."""
 
     def __init__(self, config: Config, seed: int):
+        import torch
+
+        # p_A is a 32-wide MLP trained on batches of a few dozen rows: intra-op threads only
+        # add synchronisation, and with sessions running side by side (`hadim sweep`)
+        # they fought over the cores — 8 ms per backward pass instead of 0.1 ms.
+        torch.set_num_threads(1)
         self.config = config
         self.seed = seed
         root = np.random.default_rng(seed)

@@ -218,6 +218,12 @@ def test_runs_list_and_show(runner, trained):
     assert info["config"]["world"]["episode_length"] == 25
     assert set(info["scores"]) == {"move-robot"}
     assert len(info["dataset_sha256"]) == 64
+    babbling = info["goal_babbling"]
+    n = babbling["learning_episodes"]
+    assert babbling["sigma"] == 0.7 and n > 0
+    assert 0.0 <= babbling["effective"] <= babbling["drawn"] <= 1.0
+    gave_up = sum(c for why, c in babbling["fallbacks"].items() if why.startswith("goal-"))
+    assert gave_up == round((babbling["drawn"] - babbling["effective"]) * n)
     assert "run-1" in ok(runner, "runs", "list", "--store", trained).stdout
     assert "dataset_sha256" in ok(runner, "runs", "show", "run-1", "--store", trained).stdout
 

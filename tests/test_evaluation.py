@@ -1,9 +1,10 @@
 from __future__ import annotations
 
+import numpy as np
 import pytest
 
 from hadim_cli.errors import HadimError
-from hadim_cli.evaluation.metric import point_error, task_score
+from hadim_cli.evaluation.metric import distance_error, point_error, task_score
 from hadim_cli.evaluation.tasks import load_task, load_task_file, task_names
 
 
@@ -12,6 +13,9 @@ def test_metric():
     assert point_error((0, 0), (1, 0), (1, 0)) == 0.0  # reached
     assert point_error((0, 0), (0.5, 0), (1, 0)) == pytest.approx(0.5)
     assert point_error((0, 0), (-3, 0), (1, 0)) == 1.0  # worse is capped
+    # A goal reached at the start: kept is 0, left is 1 (the one goal score near zero).
+    assert distance_error(0.0, 0.0) == 0.0 and distance_error(0.0, 0.1) == 1.0
+    assert point_error((1, 0), (1.2, 0), (1, 0)) == 1.0
     assert task_score([1.0, 1.0]) == 0.0
     assert task_score([0.0, 0.0]) == 1.0
     with pytest.raises(ValueError):
@@ -73,3 +77,43 @@ def test_a_task_names_a_real_input_space(tmp_path):
                    'affordance_input = "robot.wheels"\n[scene]\n')
     with pytest.raises(HadimError, match="'affordance_input' must name a space"):
         load_task_file(bad)
+
+
+def test_a_tool_task_fails_every_point_the_robot_touches_the_target_in():
+    """Driving straight ahead, the robot pushes the nearest object towards every point:
+    scored as a direct push it makes progress, through a tool (the same object the target)
+    each point fails on the robot–target contact, and the attempt stops there."""
+    from dataclasses import replace
+
+    from hadim_cli.config import load_config
+    from hadim_cli.evaluation.runner import evaluate
+    from hadim_cli.learner.explorer import Learner
+    from hadim_cli.learner.planner import Attempt
+    from hadim_cli.learner.spaces import Rows, parse_space
+    from hadim_cli.world.world import World
+
+    config = load_config()
+    learner = Learner(config.learner, World(config.world).layout)
+    for inp in ("robot.position", "tool.position"):
+        aff = learner.fitter.new_affordance(learner.hierarchy.allocate_id(), parse_space(inp),
+                                            parse_space("target.position"), (), Rows.empty(),
+                                            0, np.random.default_rng(0))
+        learner.hierarchy.add(aff, 0)
+    bindings = []
+
+    def straight_ahead(aff, binding, goal, actuator, budget):
+        bindings.append((aff.input.name, binding.target, binding.tool))
+        while not actuator.exhausted:
+            actuator.act(np.array([1.0, 1.0]))
+        return Attempt(1.0, 1.0, actuator.used)
+
+    learner.planner.reach = straight_ahead
+    task = load_task("push-with-tool")
+    direct = evaluate(learner, config.world, replace(task, target="obj2", tool=None,
+                                                      affordance_input="robot.position"))
+    assert direct.score > 0.05 and not any(p.contact_failed for p in direct.points)
+    through = evaluate(learner, config.world, replace(task, target="obj2", tool="obj1"))
+    assert through.score == 0.0
+    assert all(p.contact_failed and p.error == 1.0 for p in through.points)
+    assert all(p.actions < task.budget for p in through.points)  # stopped at the contact
+    assert bindings[0] == ("robot.position", 2, -1) and bindings[-1] == ("tool.position", 2, 1)

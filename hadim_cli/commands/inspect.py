@@ -85,10 +85,15 @@ def runs_show(run: RunArg, store: StoreOption = None, as_json: JsonOption = Fals
         latest: dict[str, dict] = {}
         for e in st.evaluations(run):  # by iteration: the last one of a task wins
             latest[e.task] = {"score": e.score, "iteration": e.iteration}
+        kind = _kind(r.config)
+        babbling = None
+        if r.config.get("kind") != "baseline":
+            sigma = r.config.get("learner", {}).get("sigma")
+            babbling = runs.goal_babbling_share([e.extra for e in st.episodes(run)], sigma)
         info = {
             "name": r.name, "status": r.status.value, "iterations": r.iterations,
             "seed": r.seed, "parent": r.parent, "fork_iteration": r.fork_iteration,
-            **_kind(r.config), "affordances": n_aff, "scores": latest,
+            **kind, "affordances": n_aff, "scores": latest, "goal_babbling": babbling,
             "dataset_sha256": st.dataset_sha256(run),
             "lock": None if r.lock is None else {
                 "owner": r.lock.owner, "pid": r.lock.pid, "host": r.lock.host,
@@ -117,6 +122,13 @@ def _show_value(key: str, value, iterations: int) -> str:
             f"{task}: {s['score']:.3f} at iteration {s['iteration']}"
             + ("" if s["iteration"] == iterations else " (not re-evaluated since)")
             for task, s in value.items()) or "none (train with --eval-every, or hadim eval)"
+    if key == "goal_babbling":
+        def pct(x) -> str:
+            return "—" if x is None else f"{100 * x:.1f} %"
+        falls = ", ".join(f"{k} {v}" for k, v in (value["fallbacks"] or {}).items())
+        return (f"effective {pct(value['effective'])} of {value['learning_episodes']} learning "
+                f"episodes (σ {value['sigma']}, drawn {pct(value['drawn'])})"
+                + (f"; fallbacks: {falls}" if falls else ""))
     if key == "lock":
         return f"{value['owner']} (pid {value['pid']} on {value['host']}, heartbeat " \
                f"{value['heartbeat']})"

@@ -7,13 +7,18 @@ from collections.abc import Sequence
 import numpy as np
 
 
+def distance_error(initial: float, final: float) -> float:
+    """min(1, final / initial distance to a goal): the one goal score (a goal attempt's
+    competence is 1 − this). A goal already reached at the start: 0 if still there, else 1."""
+    if initial <= 1e-9:
+        return 0.0 if final <= 1e-9 else 1.0
+    return min(1.0, final / initial)
+
+
 def point_error(start: Sequence[float], final: Sequence[float], target: Sequence[float]) -> float:
     """min(1, final distance / initial distance): 0 reached, 1 no progress (or worse)."""
-    initial = float(np.linalg.norm(np.subtract(target, start)))
-    final_d = float(np.linalg.norm(np.subtract(target, final)))
-    if initial <= 1e-9:
-        return 0.0 if final_d <= 1e-9 else 1.0
-    return min(1.0, final_d / initial)
+    return distance_error(float(np.linalg.norm(np.subtract(target, start))),
+                          float(np.linalg.norm(np.subtract(target, final))))
 
 
 def task_score(errors: Sequence[float]) -> float:

@@ -83,8 +83,20 @@ class Adaptation:
             for aff in self.h.with_output(space):
                 self._update(aff, t, iteration, rng)
             self._try_create(space, iteration, episode, rng)
+        if self.config.p_a_blocked_pushes:
+            # Driving into a fixed object moves nothing: no space is non-null, no affordance is
+            # updated, and yet p_A has something to learn from it.
+            for aff in self.h:
+                if aff.output not in spaces:
+                    self._teach_blocked(aff, t, rng)
         self._delete_false(iteration)
         return self.h.events[start:]
+
+    def _teach_blocked(self, aff: Affordance, t: np.ndarray, rng: np.random.Generator) -> None:
+        blocked = self._blocked_in_vain(aff, t)
+        if blocked is not None and len(blocked):
+            none = self.fitter.candidate_rows(aff.input, aff.output, t[:0])
+            self._train_classifier(aff, none, rng, blocked)
 
     # ------------------------------------------------------------------ existing affordances
     def _accept_mask(self, aff: Affordance, sample: Sample) -> np.ndarray | None:
@@ -98,7 +110,7 @@ class Adaptation:
         sample = f.candidate_rows(aff.input, aff.output, t)
         if len(sample.rows) == 0:
             return
-        self._train_classifier(aff, sample, rng)
+        self._train_classifier(aff, sample, rng, self._blocked_in_vain(aff, t))
         rows = f.select_rows(sample, rng, self._accept_mask(aff, sample))
         if len(rows) == 0:
             return
@@ -169,8 +181,8 @@ class Adaptation:
         aff.competence = f.competence(aff.model, rng)
         self.h.record(aff, kind, iteration, **detail)
 
-    def _train_classifier(self, aff: Affordance, sample: Sample,
-                          rng: np.random.Generator) -> None:
+    def _train_classifier(self, aff: Affordance, sample: Sample, rng: np.random.Generator,
+                          blocked: Rows | None = None) -> None:
         """Positives: targets that moved. Negatives: targets A was applied to that did not
         respond, and the entity the affordance acts from (the robot cannot push itself).
 
@@ -186,11 +198,14 @@ class Adaptation:
         moved = f.nonzero(sample.y)
         negative = self._applied_in_vain(aff, sample, moved)
         pick = moved | negative
-        if not pick.any():
-            return
         rows = sample.rows.take(np.flatnonzero(pick))
-        features = f.target_features(rows)
         labels = moved[pick]
+        if blocked is not None and len(blocked):
+            rows = rows.concat(blocked)
+            labels = np.concatenate([labels, np.zeros(len(blocked), dtype=bool)])
+        if len(rows) == 0:
+            return
+        features = f.target_features(rows)
         # One example per (entity, label) per episode keeps the replay balanced across objects.
         _, first = np.unique(np.stack([rows.target, labels.astype(np.int64)], axis=1), axis=0,
                              return_index=True)
@@ -227,6 +242,42 @@ class Adaptation:
         responded = np.unique(rows.target[changed])
         negative[idx[~np.isin(sample.rows.target[idx], responded)]] = True
         return negative
+
+    def _blocked_in_vain(self, aff: Affordance, t: np.ndarray) -> Rows | None:
+        """With `p_a_blocked_pushes`, rows of iterations `t` where an affordance acting from
+        the robot's motion was applied in vain but its input did not change: the robot touched
+        the target before the action, its motion model (the most competent controller of the
+        input from primitive actions) predicted a move with which `aff` predicts a clear push,
+        and neither the robot nor the target moved — the target stopped the robot — and the
+        target did not move at any time of the environment episode so far."""
+        f = self.fitter
+        if not self.config.p_a_blocked_pushes or aff.input.role is not Role.ROBOT \
+                or aff.has_tool or aff.classifier is None or aff.model.n < 3:
+            return None
+        movers = [a for a in self.h.controllers(aff.input) if a.input.role is Role.ACTION]
+        if not movers:
+            return None
+        rows = f.bindings(aff.input.roles | aff.output.roles, t)
+        s = f.values(aff.input, aff.output, aff.contexts, rows)
+        keep = ~f.nonzero(s.x) & ~f.nonzero(s.y) & f.touching(rows, Role.ROBOT, after=False)
+        idx = np.flatnonzero(keep)
+        if idx.size == 0:
+            return None
+        rows, s = rows.take(idx), s.take(idx)
+        mover = movers[0]
+        m = f.values(mover.input, mover.output, mover.contexts, rows)
+        intended = mover.model.predict(m.x, m.c if m.c.shape[1] else None)
+        predicted = np.linalg.norm(aff.model.predict(intended, s.c if s.c.shape[1] else None),
+                                   axis=1)
+        clear = predicted > max(0.25 * typical_step(aff), 2 * self.config.zero_eps)
+        rows = rows.take(np.flatnonzero(clear))
+        if len(rows) == 0:
+            return None
+        episode = np.arange(f.dataset.episode_start(int(rows.t.min())), int(rows.t.max()) + 1,
+                            dtype=np.int64)
+        seen, changed = f.changed(aff.output, episode)
+        still = ~np.isin(rows.target, np.unique(seen.target[changed]))
+        return rows.take(np.flatnonzero(still))
 
     # ------------------------------------------------------------------ creation and deletion
     def _creation_rows(self, inp: RoleSpace, out: RoleSpace, rng: np.random.Generator) -> Rows:

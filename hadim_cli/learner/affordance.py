@@ -13,13 +13,13 @@ import numpy as np
 
 from hadim_cli.config import LearnerConfig
 from hadim_cli.learner.classifier import VisualClassifier
-from hadim_cli.learner.competence import model_competence, range_scale
+from hadim_cli.learner.competence import model_competence, range_scale, split_zero
 from hadim_cli.learner.dataset import Dataset
-from hadim_cli.learner.frames import FramedModel, Model, relation_frame
+from hadim_cli.learner.frames import FramedModel, relation_frame
 from hadim_cli.learner.interest import InterestMap
-from hadim_cli.learner.models import LocalLinearModel
+from hadim_cli.learner.models import LocalLinearModel, Model
 from hadim_cli.learner.spaces import ACTION, Role, RoleSpace, Rows, SpaceReader, space_dim
-from hadim_cli.world.layout import ROBOT, VISUAL_PROPERTIES, Property
+from hadim_cli.world.layout import ROBOT, Property
 
 CONTACT_MARGIN = 0.02
 """Bodies closer than the sum of their radii plus this (m) are taken to be in contact."""
@@ -126,8 +126,7 @@ class Fitter:
         rows = self.bindings(roles, t)
         sample = self.values(inp, out, (), rows)
         if inp is not ACTION:
-            moved = np.linalg.norm(sample.x, axis=1) > self.config.zero_eps
-            sample = sample.take(np.flatnonzero(moved))
+            sample = sample.take(np.flatnonzero(self.nonzero(sample.x)))
         if Role.TOOL in roles:
             # Through a tool means not by the robot's own body: a target the robot touches is
             # the direct pushing affordance's outcome, and would hide the tool's relation.
@@ -157,7 +156,9 @@ class Fitter:
         return rows, self.nonzero(self.reader.read(space, self.dataset.outcomes, rows))
 
     def nonzero(self, y: np.ndarray) -> np.ndarray:
-        return np.linalg.norm(y, axis=1) > self.config.zero_eps
+        """Rows where something moved: the complement of `competence.split_zero`, the one
+        "nothing moved" rule (‖y‖ ≤ `zero_eps`)."""
+        return ~split_zero(y, self.config.zero_eps)
 
     def select_rows(self, sample: Sample, rng: np.random.Generator,
                     accept: np.ndarray | None = None) -> Rows:
@@ -171,17 +172,9 @@ class Fitter:
         return sample.rows.take(idx)
 
     def target_features(self, rows: Rows, entity: np.ndarray | None = None) -> np.ndarray:
-        """Normalised visual properties of each row's target (or of `entity`): p_A's input."""
-        d = self.dataset
+        """p_A's input (`SpaceReader.features`) for each row's target (or `entity`) in D."""
         ent = rows.target if entity is None else entity
-        probe = Rows(rows.t, ent, rows.tool)
-        parts = []
-        for prop in VISUAL_PROPERTIES:
-            space = RoleSpace(Role.TARGET, prop)
-            spec = self.reader.layout.space(ROBOT, prop)
-            high = np.maximum(np.asarray(spec.high, dtype=float), 1e-9)
-            parts.append(self.reader.read(space, d.contexts, probe) / high)
-        return np.concatenate(parts, axis=1)
+        return self.reader.features(self.dataset.contexts, Rows(rows.t, ent, rows.tool))
 
     # ------------------------------------------------------------------ models
     def new_model(self, inp: RoleSpace, out: RoleSpace,

@@ -5,7 +5,8 @@ object's properties (radius, height, colour, shape, … already scaled to about 
 caller), trained on balanced replay: one FIFO buffer of positive examples and one of negatives,
 every batch half of each. Everything runs in float64 on the CPU with plain Linear/ReLU ops, so
 that the same inputs and generator states give bit-identical weights (nothing global is set:
-not the torch seed, not deterministic-algorithms mode, not the thread count).
+not the torch seed, not deterministic-algorithms mode, not the thread count: a `Session`
+sets that when it starts).
 
 Randomness: the initial weights come from a `torch.Generator` seeded with one integer drawn
 from the numpy generator given to the constructor; batches are drawn with the numpy generator
@@ -19,11 +20,6 @@ from typing import Any
 import numpy as np
 import torch
 from torch import nn
-
-# p_A is a 32-wide MLP trained on batches of a few dozen rows: intra-op threads only add
-# synchronisation, and with sessions running side by side (scripts/reproduce.py) they fought
-# over the cores — 8 ms per backward pass instead of 0.1 ms. One thread is also deterministic.
-torch.set_num_threads(1)
 
 DTYPE = torch.float64
 """Weights and computations in float64: as fast as float32 at this size, and less fragile."""

@@ -1,4 +1,4 @@
-"""Competence of a model and learning progress: pure functions.
+"""Competence of a model: pure functions (learning progress is `interest.learning_progress`).
 
 Competence scores how well a forward model predicts outcomes it has *not* been fitted on
 (leave-one-out over its rows; the authors' code scored in-sample predictions). An error is
@@ -14,9 +14,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from hadim_cli.learner.frames import Model
-from hadim_cli.learner.interest import learning_progress  # noqa: F401  (one definition)
-from hadim_cli.learner.models import rms_scale
+from hadim_cli.learner.models import Model, rms_scale
 
 
 @dataclass(frozen=True)

@@ -1,8 +1,10 @@
 """The learner and its exploration loop (paper Algorithm 1).
 
-A *learning episode* is one pass of Algorithm 1: with probability σ (once H is not empty) goal
-babbling — AffordanceSelection, GoalSelection, ObjectSelection, Plan — otherwise a random value
-in a random controllable space; then the executed actions are adapted to (Algorithm 2). An
+A *learning episode* is one pass of Algorithm 1 (`Learner.learning_episode`, written as the
+paper's pseudo-code): with probability σ (once H is not empty) goal babbling —
+AffordanceSelection, GoalSelection, ObjectSelection, Plan/Execute, interest update — otherwise
+a random value in a random controllable space; then the executed actions are adapted to
+(Algorithm 2). Every fallback from what σ drew is recorded in the episode. An
 *environment episode* (100 primitive actions) holds several learning episodes; the world is
 reset between them and a learning episode in progress is cut there.
 """
@@ -10,7 +12,7 @@ reset between them and a learning episode in progress is cut there.
 from __future__ import annotations
 
 import enum
-from dataclasses import dataclass
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 
@@ -26,9 +28,39 @@ from hadim_cli.world.layout import ObservationLayout
 
 
 class Mode(enum.StrEnum):
+    """How a learning episode explored."""
+
     RANDOM_ACTION = "random-action"
     RANDOM_CONTROLLABLE = "random-controllable"
     GOAL = "goal"
+
+
+class Fallback(enum.StrEnum):
+    """Why a learning episode explored otherwise than it set out to (σ's draw)."""
+
+    GOAL_NO_OBJECT = "goal-no-object"
+    """Goal babbling: no object for the affordance's roles (p_A accepts none, no tool)."""
+    GOAL_NO_PLAN = "goal-no-plan"
+    """Goal babbling: the planner executed no action towards the goal."""
+    RANDOM_NO_OBJECT = "random-no-object"
+    """A random controllable value: no object for its controller's roles."""
+    RANDOM_NO_PLAN = "random-no-plan"
+    """A random controllable value: the planner executed no action towards it."""
+
+
+@dataclass(frozen=True)
+class Explored:
+    """What the exploration step of one learning episode did."""
+
+    mode: Mode
+    affordance_id: int = -1
+    goal: np.ndarray = field(default_factory=lambda: np.zeros(0))
+    competence: float = 0.0
+    fallbacks: tuple[Fallback, ...] = ()
+
+    def after(self, why: Fallback) -> Explored:
+        """This exploration, done as the fallback `why` of another."""
+        return replace(self, fallbacks=(why, *self.fallbacks))
 
 
 @dataclass(frozen=True)
@@ -36,12 +68,17 @@ class LearningEpisode:
     """What one pass of Algorithm 1 did."""
 
     mode: Mode
+    """How it explored in the end."""
     start: int
     stop: int
     affordance_id: int
     goal: tuple[float, ...]
     competence: float
     events: tuple[Event, ...]
+    drawn: Mode = Mode.RANDOM_CONTROLLABLE
+    """What σ's draw chose: GOAL (goal babbling) or RANDOM_CONTROLLABLE."""
+    fallbacks: tuple[Fallback, ...] = ()
+    """The fallbacks taken on the way from `drawn` to `mode`, in order."""
 
 
 class Learner:
@@ -131,41 +168,62 @@ class Learner:
 
     # ------------------------------------------------------------------ Algorithm 1
     def learning_episode(self, actuator: Actuator, rng: np.random.Generator) -> LearningEpisode:
+        """One pass of Algorithm 1 (paper §4.2).
+
+            with probability σ (once H is not empty):            goal babbling
+                A    ← AffordanceSelection   (in proportion to interest)
+                g    ← GoalSelection         (A's interest map; or a salient goal)
+                o    ← ObjectSelection       (the closest object p_A accepts)
+                Plan / Execute (A, o, g)     → competence
+                update A's interest map with (g, competence)
+            otherwise:                                            random controllable
+                a random primitive sequence, or a random value of a controllable space
+            Adapt H to the episode's data    (Algorithm 2)
+
+        Fallbacks are explicit and recorded (`LearningEpisode.fallbacks`): goal babbling with
+        no object to bind or nothing the planner could do becomes a random controllable; a
+        random controllable that cannot be reached becomes one random action.
+        """
         start = self.iteration
-        affordances = list(self.hierarchy)
-        if affordances and rng.random() < self.config.sigma:
-            mode, aid, goal, competence = self._goal_babbling(affordances, actuator, rng)
+        drawn = Mode.RANDOM_CONTROLLABLE
+        if len(self.hierarchy) and rng.random() < self.config.sigma:
+            drawn = Mode.GOAL
+            done = self._goal_babbling(actuator, rng)
         else:
-            mode, aid, goal, competence = self._random_controllable(actuator, rng)
+            done = self._random_controllable(actuator, rng)
         stop = self.iteration
         events: tuple[Event, ...] = ()
         if stop > start:
             events = tuple(self.adaptation.run(start, stop, stop, self.learning_episodes, rng))
         self.learning_episodes += 1
-        return LearningEpisode(mode, start, stop, aid, tuple(float(g) for g in goal),
-                               competence, events)
+        return LearningEpisode(done.mode, start, stop, done.affordance_id,
+                               tuple(float(g) for g in done.goal), done.competence, events,
+                               drawn, done.fallbacks)
 
-    def _goal_babbling(self, affordances: list[Affordance], actuator: Actuator,
-                       rng: np.random.Generator) -> tuple[Mode, int, np.ndarray, float]:
+    def affordance_selection(self, rng: np.random.Generator) -> Affordance:
+        """AffordanceSelection: an affordance of H in proportion to its map's interest
+        (uniformly with probability `interest_epsilon`)."""
+        affordances = list(self.hierarchy)
         interests = [a.interest.interest for a in affordances]
-        aff = affordances[select_index(interests, rng, self.config.interest_epsilon)]
+        return affordances[select_index(interests, rng, self.config.interest_epsilon)]
+
+    def _goal_babbling(self, actuator: Actuator, rng: np.random.Generator) -> Explored:
+        aff = self.affordance_selection(rng)
         goal = aff.interest.sample_goal(rng, epsilon=self.config.interest_epsilon)
         binding = self.select_binding(aff, actuator.obs)
         if binding is None:
-            return self._random_controllable(actuator, rng)
+            return self._random_controllable(actuator, rng).after(Fallback.GOAL_NO_OBJECT)
         # The interest map's goal is drawn first either way: one layout of the random stream.
         salient = self.salient_goal(aff, binding, actuator.obs, rng)
         if salient is not None:
             goal = salient
         attempt = self.planner.reach(aff, binding, goal, actuator, self.config.goal_budget)
         if attempt.actions == 0:
-            # Nothing could be planned: babble instead so the episode still explores.
-            return self._random_controllable(actuator, rng)
+            return self._random_controllable(actuator, rng).after(Fallback.GOAL_NO_PLAN)
         aff.interest.add(goal, attempt.competence, self.iteration)
-        return Mode.GOAL, aff.id, goal, attempt.competence
+        return Explored(Mode.GOAL, aff.id, goal, attempt.competence)
 
-    def _random_controllable(self, actuator: Actuator,
-                             rng: np.random.Generator) -> tuple[Mode, int, np.ndarray, float]:
+    def _random_controllable(self, actuator: Actuator, rng: np.random.Generator) -> Explored:
         spaces: list[RoleSpace] = [ACTION, *sorted(self.hierarchy.controllable())]
         space = spaces[int(rng.integers(len(spaces)))]
         if space is ACTION:
@@ -173,22 +231,22 @@ class Learner:
                 if actuator.exhausted:
                     break
                 actuator.act(rng.uniform(-1.0, 1.0, size=2))
-            return Mode.RANDOM_ACTION, -1, np.zeros(0), 0.0
+            return Explored(Mode.RANDOM_ACTION)
         aff = self.hierarchy.controllers(space)[0]
         binding = self.select_binding(aff, actuator.obs)
         if binding is None:
-            return self._random_controllable_action(actuator, rng)
+            return self._random_action(actuator, rng, Fallback.RANDOM_NO_OBJECT)
         goal = self.salient_goal(aff, binding, actuator.obs, rng)
         if goal is None:
             low, high = output_bounds(space, self.reader)
             goal = rng.uniform(low, high)
         attempt = self.planner.reach(aff, binding, goal, actuator, self.config.goal_budget)
         if attempt.actions == 0:
-            return self._random_controllable_action(actuator, rng)
-        return Mode.RANDOM_CONTROLLABLE, aff.id, goal, attempt.competence
+            return self._random_action(actuator, rng, Fallback.RANDOM_NO_PLAN)
+        return Explored(Mode.RANDOM_CONTROLLABLE, aff.id, goal, attempt.competence)
 
-    def _random_controllable_action(self, actuator: Actuator,
-                                    rng: np.random.Generator) -> tuple[Mode, int, np.ndarray,
-                                                                       float]:
+    @staticmethod
+    def _random_action(actuator: Actuator, rng: np.random.Generator,
+                       why: Fallback) -> Explored:
         actuator.act(rng.uniform(-1.0, 1.0, size=2))
-        return Mode.RANDOM_ACTION, -1, np.zeros(0), 0.0
+        return Explored(Mode.RANDOM_ACTION, fallbacks=(why,))

@@ -23,7 +23,13 @@ from typing import Any
 
 import numpy as np
 
-from hadim_cli.learner.models import InverseResult, LocalLinearModel, SpaceScale, as_rows
+from hadim_cli.learner.models import (
+    InverseResult,
+    LocalLinearModel,
+    Model,
+    SpaceScale,
+    as_rows,
+)
 from hadim_cli.learner.spaces import ACTION, RoleSpace
 from hadim_cli.world.layout import Property
 
@@ -314,10 +320,6 @@ class FramedModel:
             model.add(state["x"], state["c"], state["y"])
         model.inner.restore_indexes(state["built"])
         return model
-
-
-Model = LocalLinearModel | FramedModel
-"""What an affordance holds: rows with forward and inverse models."""
 
 
 def seen(model: Model, *, along: np.ndarray | None = None, at: np.ndarray | None = None

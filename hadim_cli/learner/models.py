@@ -28,7 +28,7 @@ from __future__ import annotations
 
 from collections.abc import Sequence
 from dataclasses import dataclass, field
-from typing import Any
+from typing import Any, Protocol, runtime_checkable
 
 import numpy as np
 from scipy.spatial import cKDTree
@@ -159,6 +159,46 @@ class _LocalFit:
     value: np.ndarray
     slopes: np.ndarray
     """(Q, m, dy): slopes per normalised input column; zero for columns left out of the fit."""
+
+
+# ---------------------------------------------------------------------------- the interface
+@runtime_checkable
+class Model(Protocol):
+    """What the learner and the planner ask of an affordance's models: its rows, M_A, L_A and
+    neighbour searches, all in room coordinates. `LocalLinearModel` is one;
+    `frames.FramedModel` (fitted in the frame of a relation) another. Code outside the models
+    uses these and nothing else (`frames.seen` reads a framed model's rows turned)."""
+
+    dx: int
+    dy: int
+    context_dims: tuple[int, ...]
+    dc: int
+
+    @property
+    def n(self) -> int: ...
+
+    def params(self) -> dict[str, Any]: ...
+
+    def add(self, x: np.ndarray, c: np.ndarray | None, y: np.ndarray) -> None: ...
+
+    def data(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]: ...
+
+    def scales(self) -> SpaceScale: ...
+
+    def predict(self, x: np.ndarray, c: np.ndarray | None = None) -> np.ndarray: ...
+
+    def predict_loo(self, indices: np.ndarray | Sequence[int] | None = None) -> np.ndarray: ...
+
+    def infer(self, y_goal: np.ndarray, c: np.ndarray | None = None, *,
+              n_candidates: int | None = None) -> InverseResult: ...
+
+    def forward_neighbours(self, x: np.ndarray, c: np.ndarray | None = None,
+                           k: int | None = None) -> tuple[np.ndarray, np.ndarray]: ...
+
+    def inverse_neighbours(self, y: np.ndarray, c: np.ndarray | None = None,
+                           k: int | None = None) -> tuple[np.ndarray, np.ndarray]: ...
+
+    def state(self) -> dict[str, np.ndarray]: ...
 
 
 # ---------------------------------------------------------------------------- the model

@@ -237,15 +237,20 @@ class SpaceReader:
         rows = Rows(np.zeros(1, dtype=np.int64), np.array([target]), np.array([tool]))
         return self.read(space, obs[None, :], rows)[0]
 
-    def visual_features(self, obs: np.ndarray, entity: int) -> np.ndarray:
-        """Normalised visual properties of one entity: the input of p_A."""
-        name = self.layout.entities[entity]
+    def features(self, arr: np.ndarray, rows: Rows) -> np.ndarray:
+        """p_A's input, the one definition: the visual properties (radius, height, colour,
+        shape) of each row's target in the observations `arr`, each divided by its space's
+        upper bound (about [0, 1])."""
         parts = []
         for prop in VISUAL_PROPERTIES:
-            spec = self.layout.space(name, prop)
-            high = np.maximum(np.asarray(spec.high), 1e-9)
-            parts.append(obs[spec.slice] / high)
-        return np.concatenate(parts)
+            high = np.maximum(np.asarray(self.layout.space(ROBOT, prop).high, dtype=float), 1e-9)
+            parts.append(self.read(RoleSpace(Role.TARGET, prop), arr, rows) / high)
+        return np.concatenate(parts, axis=1)
+
+    def visual_features(self, obs: np.ndarray, entity: int) -> np.ndarray:
+        """`features` of one entity (the robot or an object) in one observation."""
+        one = np.zeros(1, dtype=np.int64)
+        return self.features(obs[None, :], Rows(one, np.array([entity]), one - 1))[0]
 
     def entity_position(self, obs: np.ndarray, entity: int) -> np.ndarray:
         start = self._entity_start[entity]

@@ -7,11 +7,11 @@ import numpy as np
 from hadim_cli.learner.competence import (
     competence_of_error,
     evaluation_rows,
-    learning_progress,
     model_competence,
     normalised_errors,
     split_zero,
 )
+from hadim_cli.learner.interest import learning_progress
 from hadim_cli.learner.models import LocalLinearModel
 
 EPS = 1e-3

@@ -167,3 +167,10 @@ def test_which_relation_frames_an_affordance() -> None:
     assert relation_frame(ACTION, target, (target_robot,)) == Frame(0, False, True, ())
     assert relation_frame(ACTION, robot, (heading,)) is None
     assert relation_frame(robot, target, (radius,)) is None
+
+
+def test_both_kinds_of_model_offer_the_model_interface() -> None:
+    from hadim_cli.learner.models import Model
+
+    for cls in (FramedModel, LocalLinearModel):
+        assert isinstance(fitted(cls, *pushes(np.random.default_rng(0), 20, (0.0, 1.0))), Model)

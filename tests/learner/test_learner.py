@@ -165,13 +165,14 @@ def test_goal_babbling_takes_salient_goals_for_objects(monkeypatch):
     aff = SimpleNamespace(id=3, output=RoleSpace(Role.TARGET, Property.POSITION),
                           classifier=None, interest=interest)
     tried = []
+    monkeypatch.setattr(learner, "affordance_selection", lambda rng: aff)
     monkeypatch.setattr(learner, "select_binding", lambda a, o: Binding(target=1))
     monkeypatch.setattr(learner.planner, "reach",
                         lambda a, b, goal, act, budget: tried.append(goal) or Attempt(1, 1, 1))
     actuator = SimpleNamespace(obs=obs)
     rng = np.random.default_rng(0)
     for _ in range(40):
-        learner._goal_babbling([aff], actuator, rng)
+        learner._goal_babbling(actuator, rng)
     there = learner.reader.entity_position(obs, learner.closest(
         np.arange(2, len(learner.layout.entities)), obs, to=1))
     salient = [g for g in tried if np.isclose(np.linalg.norm(g - there),

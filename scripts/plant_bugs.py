@@ -1,0 +1,198 @@
+"""Plant one-line bugs in the algorithm, one at a time, and check a test catches each.
+
+    python scripts/plant_bugs.py            # every bug
+    python scripts/plant_bugs.py sigma ...  # the named ones
+
+Each bug replaces one exact piece of source (it must occur once), runs the tests named for it
+with this checkout on PYTHONPATH, and restores the file whatever happens. A bug whose tests
+all pass is reported MISSED (one that breaks the import, BROKEN); either makes the exit
+status 1. `pytest -m slow tests/test_planted_bugs.py` runs the same list. The table in
+docs/testing.md is this list; keep them together.
+"""
+
+from __future__ import annotations
+
+import os
+import subprocess
+import sys
+from pathlib import Path
+from typing import NamedTuple
+
+ROOT = Path(__file__).resolve().parents[1]
+STEPS = "tests/learner/test_algorithm_steps.py"
+TRIP = "tests/learner/test_state_round_trip.py"
+
+
+class Bug(NamedTuple):
+    name: str
+    path: str
+    old: str
+    new: str
+    tests: str
+    """pytest node ids (space-separated) that must fail."""
+
+
+BUGS = (
+    Bug("competence-in-sample", "hadim_cli/learner/competence.py",
+        "model.predict_loo(rows)", "model.predict(model.data()[0][rows], model.data()[1][rows])",
+        f"{STEPS}::test_competence_is_scored_on_held_out_rows"),
+    Bug("backoff-not-restored", "hadim_cli/learner/state.py",
+        "    learner.adaptation.backoff.wait = {k: int(v) for k, v in meta[\"backoff\"]"
+        "[\"wait\"].items()}", "", TRIP),
+    Bug("split-not-restored", "hadim_cli/learner/interest.py",
+        "_Leaf(next_split_at=int(a[\"node_next_split_at\"][i]))", "_Leaf()", TRIP),
+    Bug("contact-ignored", "hadim_cli/evaluation/runner.py",
+        "error = 1.0 if actuator.touched else point_error(start, final, point)",
+        "error = point_error(start, final, point)",
+        "tests/test_evaluation.py::test_a_tool_task_fails_every_point_the_robot_touches_the"
+        "_target_in"),
+    Bug("contact-not-watched", "hadim_cli/evaluation/runner.py",
+        "task.target if task.tool else None", "None",
+        "tests/test_evaluation.py::test_a_tool_task_fails_every_point_the_robot_touches_the"
+        "_target_in"),
+    Bug("sigma-ignored", "hadim_cli/learner/explorer.py",
+        "rng.random() < self.config.sigma", "rng.random() < 0.0",
+        f"{STEPS}::test_sigma_is_the_share_of_goal_babbling"),
+    Bug("deletion-never", "hadim_cli/learner/adaptation.py",
+        "        self._delete_false(iteration)\n", "",
+        f"{STEPS}::test_a_false_affordance_is_deleted_after_its_patience"),
+    Bug("deletion-ignores-needed", "hadim_cli/learner/adaptation.py",
+        " and self.h.deletable(aff)", "",
+        f"{STEPS}::test_a_good_update_resets_the_low_streak_and_a_needed_affordance_stays"),
+    Bug("low-streak-never-reset", "hadim_cli/learner/adaptation.py",
+        "aff.low_streak + 1 if low else 0", "aff.low_streak + 1",
+        f"{STEPS}::test_a_good_update_resets_the_low_streak_and_a_needed_affordance_stays"),
+    Bug("match-always", "hadim_cli/learner/adaptation.py",
+        "matched = aff.competence >= before - self.config.match_tolerance", "matched = True",
+        f"{STEPS}::test_rows_that_do_not_match_trigger_a_context_search"),
+    Bug("match-never", "hadim_cli/learner/adaptation.py",
+        "matched = aff.competence >= before - self.config.match_tolerance", "matched = False",
+        f"{STEPS}::test_rows_that_do_not_match_trigger_a_context_search"),
+    Bug("review-never", "hadim_cli/learner/adaptation.py",
+        "if not matched or review:", "if not matched:",
+        f"{STEPS}::test_contexts_are_reviewed_every_few_updates_even_when_rows_match"),
+    Bug("rows-not-absorbed", "hadim_cli/learner/adaptation.py",
+        "        aff.rows = aff.rows.concat(rows)\n", "",
+        f"{STEPS}::test_rows_that_do_not_match_trigger_a_context_search"),
+    Bug("context-add-never", "hadim_cli/learner/adaptation.py",
+        "            options.append((EventKind.CONTEXT_ADDED, (*current, c), {\"added\": c.name}))",
+        "            pass",
+        f"{STEPS}::test_a_context_change_reaches_the_context_the_data_need"),
+    Bug("context-replace-never", "hadim_cli/learner/adaptation.py",
+        "                options.append((EventKind.CONTEXT_REPLACED, (*rest, c),",
+        "                0 and options.append((EventKind.CONTEXT_REPLACED, (*rest, c),",
+        f"{STEPS}::test_a_context_change_reaches_the_context_the_data_need"),
+    Bug("context-remove-never", "hadim_cli/learner/adaptation.py",
+        "            options.append((EventKind.CONTEXT_REMOVED, rest, {\"removed\": old.name}))",
+        "            pass",
+        f"{STEPS}::test_a_context_change_reaches_the_context_the_data_need"),
+    Bug("context-gain-ignored", "hadim_cli/learner/adaptation.py",
+        "if value < cfg.tau_modification or margin < baseline:",
+        "if value < cfg.tau_modification:",
+        f"{STEPS}::test_the_right_context_is_kept "
+        f"{STEPS}::test_a_context_that_does_not_earn_its_gain_is_not_added"),
+    Bug("tau-modification-ignored", "hadim_cli/learner/adaptation.py",
+        "if value < cfg.tau_modification or margin < baseline:", "if margin < baseline:",
+        f"{STEPS}::test_a_context_that_does_not_earn_its_gain_is_not_added"),
+    Bug("context-not-refitted", "hadim_cli/learner/adaptation.py",
+        "        aff.model = f.fit(aff.input, aff.output, aff.contexts, aff.rows)\n", "",
+        f"{STEPS}::test_a_context_change_reaches_the_context_the_data_need"),
+    Bug("creation-never", "hadim_cli/learner/adaptation.py",
+        "            self._try_create(space, iteration, episode, rng)\n", "",
+        f"{STEPS}::test_creation_finds_the_drive_and_its_context"),
+    Bug("tau-creation-ignored", "hadim_cli/learner/adaptation.py",
+        "            if value < self.config.tau_creation:\n", "            if False:\n",
+        f"{STEPS}::test_nothing_is_created_from_noise_and_the_trial_backs_off"),
+    Bug("creation-context-never", "hadim_cli/learner/adaptation.py",
+        "        for c in context_candidates(inp.roles | out.roles):\n            value = "
+        "score((c,))", "        for c in ():\n            value = score((c,))",
+        f"{STEPS}::test_creation_finds_the_drive_and_its_context"),
+    Bug("backoff-ignored", "hadim_cli/learner/adaptation.py",
+        "            if not self.backoff.ready(inp, out, episode):\n                continue\n",
+        "", f"{STEPS}::test_nothing_is_created_from_noise_and_the_trial_backs_off"),
+    Bug("backoff-not-doubled", "hadim_cli/learner/adaptation.py",
+        "wait = min(16, 2 * self.wait.get(key, 1))", "wait = 2",
+        f"{STEPS}::test_back_off_doubles_up_to_sixteen_episodes"),
+    Bug("duplicate-creation", "hadim_cli/learner/hierarchy.py",
+        "return [s for s in out if s not in existing]", "return out",
+        f"{STEPS}::test_an_input_already_used_for_an_output_is_not_created_again"),
+    Bug("p-a-labels-inverted", "hadim_cli/learner/adaptation.py",
+        "labels = moved[pick]", "labels = ~moved[pick]",
+        f"{STEPS}::test_p_a_is_taught_movers_as_positives_the_robot_and_in_vain_pushes_as_"
+        "negatives"),
+    Bug("p-a-robot-positive", "hadim_cli/learner/adaptation.py",
+        "labels = np.concatenate([labels, [False]])", "labels = np.concatenate([labels, [True]])",
+        f"{STEPS}::test_p_a_is_taught_movers_as_positives_the_robot_and_in_vain_pushes_as_"
+        "negatives"),
+    Bug("p-a-no-negatives", "hadim_cli/learner/adaptation.py",
+        "pick = moved | negative", "pick = moved",
+        f"{STEPS}::test_p_a_is_taught_movers_as_positives_the_robot_and_in_vain_pushes_as_"
+        "negatives"),
+    Bug("affordance-selection-uniform", "hadim_cli/learner/explorer.py",
+        "select_index(interests, rng, self.config.interest_epsilon)",
+        "select_index(interests, rng, 1.0)",
+        f"{STEPS}::test_goal_babbling_picks_affordances_by_interest_and_records_the_attempt"),
+    Bug("interest-not-updated", "hadim_cli/learner/explorer.py",
+        "        aff.interest.add(goal, attempt.competence, self.iteration)\n", "",
+        f"{STEPS}::test_goal_babbling_picks_affordances_by_interest_and_records_the_attempt"),
+    Bug("region-selection-uniform", "hadim_cli/learner/interest.py",
+        "k = select_index(self._interests(), rng, 0.0)",
+        "k = select_index(self._interests(), rng, 1.0)",
+        "tests/learner/test_interest.py::test_sampling_prefers_high_interest_region"),
+    Bug("no-fallback", "hadim_cli/learner/explorer.py",
+        "            return self._random_controllable(actuator, rng).after(Fallback.GOAL_NO_PLAN)",
+        "            pass",
+        f"{STEPS}::test_a_goal_attempt_that_cannot_be_planned_falls_back_to_random_babbling"),
+    Bug("object-selection-ignores-p-a", "hadim_cli/learner/explorer.py",
+        "return objects[aff.classifier.accepts(features)]", "return objects",
+        f"{STEPS}::test_object_selection_takes_the_closest_object_p_a_accepts"),
+    Bug("p-a-blocked-not-taught", "hadim_cli/learner/adaptation.py",
+        "        if blocked is not None and len(blocked):\n            rows = rows.concat(",
+        "        if False:\n            rows = rows.concat(",
+        f"{STEPS}::test_an_object_that_stops_the_robot_teaches_p_a_with_blocked_pushes"),
+    Bug("p-a-blocked-only-when-updated", "hadim_cli/learner/adaptation.py",
+        "                if aff.output not in spaces:\n", "                if False:\n",
+        f"{STEPS}::test_a_blocked_push_in_an_episode_where_nothing_moved_still_teaches_p_a"),
+    Bug("learning-episodes-not-restored", "hadim_cli/learner/state.py",
+        "    learner.learning_episodes = int(meta[\"learning_episodes\"])\n", "", TRIP),
+    Bug("low-streak-not-restored", "hadim_cli/learner/state.py",
+        "int(meta[\"low_streak\"]))", "0)", TRIP),
+)
+
+
+def plant(bug: Bug) -> str:
+    """'caught' if the tests failed on `bug`, 'MISSED' if they passed, 'BROKEN' if they could
+    not run (the bug does not even import: it proves nothing)."""
+    path = ROOT / bug.path
+    source = path.read_text()
+    if source.count(bug.old) != 1:
+        raise SystemExit(f"error: bug {bug.name}: the text to replace occurs "
+                         f"{source.count(bug.old)} times in {bug.path}")
+    try:
+        path.write_text(source.replace(bug.old, bug.new))
+        env = {**os.environ, "PYTHONPATH": str(ROOT)}
+        result = subprocess.run([sys.executable, "-m", "pytest", "-q", "-x", "-p",
+                                 "no:cacheprovider", *bug.tests.split()], cwd=ROOT, env=env,
+                                capture_output=True, text=True)
+    finally:
+        path.write_text(source)
+    return {0: "MISSED", 1: "caught"}.get(result.returncode, "BROKEN")
+
+
+def main(names: list[str]) -> int:
+    chosen = [b for b in BUGS if not names or b.name in names]
+    unknown = set(names) - {b.name for b in BUGS}
+    if unknown:
+        print(f"error: unknown bug(s): {', '.join(sorted(unknown))}", file=sys.stderr)
+        return 2
+    missed = []
+    for bug in chosen:
+        verdict = plant(bug)
+        print(f"{verdict:7s} {bug.name}", flush=True)
+        if verdict != "caught":
+            missed.append(bug.name)
+    return 1 if missed else 0
+
+
+if __name__ == "__main__":
+    sys.exit(main(sys.argv[1:]))

@@ -1,0 +1,467 @@
+"""Each step of Algorithms 1 and 2 on hand-built data: a one-line bug in any of them fails a
+test here (the bug → test table is in docs/testing.md).
+
+The data (`handmade.Room`): a differential drive whose displacement is a function of the
+action *and the heading*; or, with a fixed heading, of the action alone; or noise.
+"""
+
+from __future__ import annotations
+
+from types import SimpleNamespace
+
+import numpy as np
+import pytest
+from handmade import (
+    ROBOT_HEADING,
+    ROBOT_LIDAR,
+    ROBOT_POSITION,
+    TARGET_POSITION,
+    TARGET_ROBOT,
+    TOOL_POSITION,
+    Room,
+)
+
+from hadim_cli.learner.adaptation import CreationBackoff
+from hadim_cli.learner.explorer import Fallback, Mode
+from hadim_cli.learner.hierarchy import EventKind
+from hadim_cli.learner.planner import Attempt
+from hadim_cli.learner.spaces import ACTION, Rows
+from hadim_cli.world.layout import Property
+
+
+# ---------------------------------------------------------------------- competence
+def test_competence_is_scored_on_held_out_rows():
+    """Noise has nothing to learn. A model fitted on few neighbours (k = 1 or 3) reproduces
+    each row it was fitted on: scored in-sample it would look perfect; held out, it misses."""
+    for k in (1, 3):
+        room = Room(k_forward=k)
+        t = room.moves(np.random.default_rng(0), 200, noise=True)
+        assert room.fitter.trial(ACTION, ROBOT_POSITION, (), room.rows(t),
+                                 np.random.default_rng(1)) < 0.1
+    room = Room()
+    t = room.moves(np.random.default_rng(0), 200)
+    assert room.fitter.trial(ACTION, ROBOT_POSITION, (ROBOT_HEADING,), room.rows(t),
+                             np.random.default_rng(1)) > 0.6
+
+
+# ---------------------------------------------------------------------- context changes
+@pytest.mark.parametrize(("fixed_heading", "start", "kind", "end"), [
+    (False, (), EventKind.CONTEXT_ADDED, (ROBOT_HEADING,)),
+    (False, (ROBOT_POSITION,), EventKind.CONTEXT_REPLACED, (ROBOT_HEADING,)),
+    (False, (ROBOT_HEADING, ROBOT_POSITION), None, (ROBOT_HEADING,)),
+    (True, (ROBOT_POSITION,), EventKind.CONTEXT_REMOVED, ()),
+])
+def test_a_context_change_reaches_the_context_the_data_need(fixed_heading, start, kind, end):
+    """Add the heading a drive needs, replace a useless context by it, drop a useless one
+    (with a fixed heading the action alone says where the robot goes)."""
+    room = Room()
+    t = room.moves(np.random.default_rng(0), 200, heading=0.4 if fixed_heading else None)
+    aff = room.affordance(t, start)
+    before = aff.competence
+    room.adaptation._adapt_context(aff, 500, np.random.default_rng(2))
+    assert aff.contexts == end
+    assert aff.competence >= before
+    last = room.hierarchy.events[-1]
+    if kind is not None:
+        assert last.kind == kind and last.affordance_id == aff.id
+    assert last.contexts == tuple(c.name for c in end)
+    # The model was refitted with the new contexts.
+    assert aff.model.data()[1].shape[1] == 2 * len(end)
+
+
+def test_the_right_context_is_kept():
+    """No change earns its gain over the heading: nothing changes, no event."""
+    room = Room()
+    t = room.moves(np.random.default_rng(0), 200)
+    aff = room.affordance(t, (ROBOT_HEADING,))
+    n_events = len(room.hierarchy.events)
+    room.adaptation._adapt_context(aff, 500, np.random.default_rng(2))
+    assert aff.contexts == (ROBOT_HEADING,)
+    assert len(room.hierarchy.events) == n_events
+
+
+def test_a_context_that_does_not_earn_its_gain_is_not_added():
+    """The LIDAR says nothing here; with τ_modification out of reach nothing is kept either."""
+    room = Room(tau_modification=1.01)
+    t = room.moves(np.random.default_rng(0), 200)
+    aff = room.affordance(t, ())
+    room.adaptation._adapt_context(aff, 500, np.random.default_rng(2))
+    assert aff.contexts == ()
+    room = Room(context_gain=0.9)
+    t = room.moves(np.random.default_rng(0), 200)
+    aff = room.affordance(t, (ROBOT_LIDAR,))
+    room.adaptation._adapt_context(aff, 500, np.random.default_rng(2))
+    assert aff.contexts in ((ROBOT_LIDAR,), ())  # replacing it needs 0.45: removing is free
+
+
+# ---------------------------------------------------------------------- match
+def _recorded_context_trials(room: Room, monkeypatch) -> list[int]:
+    calls: list[int] = []
+    monkeypatch.setattr(room.adaptation, "_adapt_context",
+                        lambda aff, iteration, rng: calls.append(aff.id))
+    return calls
+
+
+@pytest.mark.parametrize("noise", [False, True])
+def test_rows_that_do_not_match_trigger_a_context_search(noise, monkeypatch):
+    """An episode like the affordance's data matches (no search); noise does not (search)."""
+    room = Room(context_review_every=1000)
+    rng = np.random.default_rng(0)
+    aff = room.affordance(room.moves(rng, 150), (ROBOT_HEADING,))
+    calls = _recorded_context_trials(room, monkeypatch)
+    start = room.episode()
+    t = room.moves(rng, 60, noise=noise)
+    n_rows = len(aff.rows)
+    room.adaptation._update(aff, t, len(room.dataset), rng)
+    assert len(aff.rows) == n_rows + len(t)  # the episode's rows are absorbed either way
+    assert int(aff.rows.t.min()) == 0 and int(aff.rows.t.max()) == len(room.dataset) - 1
+    assert calls == ([aff.id] if noise else [])
+    assert aff.history[-1] == (len(room.dataset), aff.competence)
+    assert start == int(t[0])
+
+
+def test_contexts_are_reviewed_every_few_updates_even_when_rows_match(monkeypatch):
+    room = Room(context_review_every=3)
+    rng = np.random.default_rng(0)
+    aff = room.affordance(room.moves(rng, 150), (ROBOT_HEADING,))
+    calls = _recorded_context_trials(room, monkeypatch)
+    for _ in range(6):
+        room.episode()
+        room.adaptation._update(aff, room.moves(rng, 10), len(room.dataset), rng)
+    # history holds the creation, then one entry per update: reviews at lengths 3 and 6.
+    assert calls == [aff.id, aff.id]
+
+
+# ---------------------------------------------------------------------- creation
+def test_creation_finds_the_drive_and_its_context():
+    room = Room()
+    rng = np.random.default_rng(0)
+    room.episode()
+    t = room.moves(rng, 200)
+    events = room.adaptation.run(int(t[0]), int(t[-1]) + 1, len(room.dataset), 0, rng)
+    created = [e for e in events if e.kind is EventKind.CREATED]
+    assert [(e.input, e.output) for e in created] == [("action", "robot.position"),
+                                                     ("action", "robot.heading")]
+    mover = room.hierarchy.with_output(ROBOT_POSITION)[0]
+    assert mover.contexts == (ROBOT_HEADING,)  # born with the context its data need
+    assert mover.competence >= room.config.tau_creation
+    assert len(mover.rows) > 0 and mover.model.n == len(mover.rows)
+
+
+def test_nothing_is_created_from_noise_and_the_trial_backs_off():
+    room = Room()
+    rng = np.random.default_rng(0)
+    room.episode()
+    room.moves(rng, 40, noise=True)
+    room.adaptation._try_create(ROBOT_POSITION, len(room.dataset), 7, rng)
+    assert len(room.hierarchy) == 0
+    backoff = room.adaptation.backoff
+    assert not backoff.ready(ACTION, ROBOT_POSITION, 8)
+    assert backoff.ready(ACTION, ROBOT_POSITION, 9)
+    # Learnable data arrive, but the trial waits for its turn.
+    room.moves(rng, 800)
+    room.adaptation._try_create(ROBOT_POSITION, len(room.dataset), 8, rng)
+    assert len(room.hierarchy) == 0
+    room.adaptation._try_create(ROBOT_POSITION, len(room.dataset), 9, rng)
+    assert len(room.hierarchy) == 1
+
+
+def test_back_off_doubles_up_to_sixteen_episodes():
+    b = CreationBackoff()
+    episode, waits = 0, []
+    for _ in range(6):
+        b.failed(ACTION, ROBOT_POSITION, episode)
+        nxt = b.next_try[CreationBackoff.key(ACTION, ROBOT_POSITION)]
+        waits.append(nxt - episode)
+        assert not b.ready(ACTION, ROBOT_POSITION, nxt - 1) and b.ready(ACTION, ROBOT_POSITION,
+                                                                         nxt)
+        episode = nxt
+    assert waits == [2, 4, 8, 16, 16, 16]
+    assert b.ready(ACTION, ROBOT_HEADING, 0)  # other pairs are not held back
+
+
+def test_an_input_already_used_for_an_output_is_not_created_again():
+    room = Room()
+    rng = np.random.default_rng(0)
+    room.affordance(room.moves(rng, 200), (ROBOT_HEADING,))
+    room.adaptation._try_create(ROBOT_POSITION, len(room.dataset), 0, rng)
+    assert len(room.hierarchy.with_output(ROBOT_POSITION)) == 1
+
+
+# ---------------------------------------------------------------------- deletion
+def test_a_false_affordance_is_deleted_after_its_patience():
+    """Low competence for `deletion_patience` updates in a row: deleted, with an event."""
+    room = Room(deletion_patience=3, context_review_every=1000)
+    rng = np.random.default_rng(0)
+    aff = room.affordance(room.moves(rng, 100, noise=True), ())
+    assert aff.competence < room.config.tau_deletion
+    for k in range(3):
+        assert aff.id in room.hierarchy.affordances
+        start = room.episode()
+        room.moves(rng, 30, noise=True)
+        room.adaptation.backoff.next_try["action>robot.position"] = 10**9  # no re-creation
+        room.adaptation.backoff.next_try["action>robot.heading"] = 10**9
+        room.adaptation.run(start, len(room.dataset), len(room.dataset), k, rng)
+        assert aff.low_streak == k + 1
+    assert aff.id not in room.hierarchy.affordances
+    last = room.hierarchy.events[-1]
+    assert (last.kind, last.affordance_id) == (EventKind.DELETED, aff.id)
+
+
+def test_a_good_update_resets_the_low_streak_and_a_needed_affordance_stays():
+    room = Room(deletion_patience=2)
+    rng = np.random.default_rng(0)
+    aff = room.affordance(room.moves(rng, 200), (ROBOT_HEADING,))
+    aff.low_streak = 5
+    room.episode()
+    room.adaptation._update(aff, room.moves(rng, 20), len(room.dataset), rng)
+    assert aff.low_streak == 0
+    # The only controller of another affordance's input is never deleted.
+    aff.low_streak = 5
+    user = room.affordance(np.zeros(0, dtype=np.int64), (), inp=ROBOT_POSITION,
+                           out=TARGET_POSITION)
+    room.adaptation._delete_false(len(room.dataset))
+    assert aff.id in room.hierarchy.affordances
+    assert user.low_streak == 0 and user.id in room.hierarchy.affordances
+
+
+# ---------------------------------------------------------------------- Algorithm 1
+class FakeActuator:
+    """Counts primitive actions; never runs out."""
+
+    def __init__(self, obs: np.ndarray):
+        self.obs = obs
+        self.exhausted = False
+        self.actions = 0
+
+    def act(self, action: np.ndarray) -> np.ndarray:
+        self.actions += 1
+        return self.obs
+
+
+def _planner_that_tries(room: Room, monkeypatch, actions: int = 1) -> list:
+    tried: list = []
+
+    def reach(aff, binding, goal, actuator, budget):
+        tried.append((aff.id, np.asarray(goal).copy()))
+        return Attempt(1.0, 0.5, actions)
+
+    monkeypatch.setattr(room.learner.planner, "reach", reach)
+    return tried
+
+
+@pytest.mark.parametrize("sigma", [0.0, 0.7, 1.0])
+def test_sigma_is_the_share_of_goal_babbling(sigma, monkeypatch):
+    room = Room(sigma=sigma)
+    rng = np.random.default_rng(0)
+    room.affordance(room.moves(rng, 100), (ROBOT_HEADING,))
+    _planner_that_tries(room, monkeypatch)
+    actuator = FakeActuator(room.obs.copy())
+    modes = [room.learner.learning_episode(actuator, rng).mode for _ in range(300)]
+    share = modes.count(Mode.GOAL) / len(modes)
+    assert abs(share - sigma) < 0.08
+    # With H empty there is nothing to babble goals for.
+    empty = Room(sigma=1.0)
+    assert empty.learner.learning_episode(actuator, rng).mode is Mode.RANDOM_ACTION
+
+
+def test_goal_babbling_picks_affordances_by_interest_and_records_the_attempt(monkeypatch):
+    """AffordanceSelection in proportion to interest (ε = 0.2 uniform): with one map at
+    interest 0.5 and the other at 0, the first is taken ≈ 90 % of the time. Every attempt is
+    recorded in the map of the affordance tried (the interest update)."""
+    room = Room(sigma=1.0)
+    rng = np.random.default_rng(0)
+    t = room.moves(rng, 100)
+    keen = room.affordance(t, (ROBOT_HEADING,))
+    dull = room.affordance(t, (), out=ROBOT_HEADING)
+    for i in range(20):  # a leaf whose competence jumped half-way: learning progress 0.5
+        keen.interest.add([0.0, 0.0], 0.0 if i < 10 else 0.5, i)
+        dull.interest.add([0.0, 0.0], 0.3, i)
+    tried = _planner_that_tries(room, monkeypatch)
+    recorded: list[tuple[int, float]] = []
+    for aff in (keen, dull):  # record the updates, keep the maps as they are
+        monkeypatch.setattr(aff.interest, "add", lambda goal, c, it, aid=aff.id:
+                            recorded.append((aid, c)))
+    actuator = FakeActuator(room.obs.copy())
+    for _ in range(300):
+        room.learner.learning_episode(actuator, rng)
+    share = sum(aid == keen.id for aid, _ in tried) / len(tried)
+    assert 0.82 < share < 0.97
+    assert recorded == [(aid, 0.5) for aid, _ in tried]  # Attempt(1.0, 0.5, …): 1 − 0.5
+
+
+def test_a_goal_attempt_that_cannot_be_planned_falls_back_to_random_babbling(monkeypatch):
+    room = Room(sigma=1.0)
+    rng = np.random.default_rng(0)
+    aff = room.affordance(room.moves(rng, 100), (ROBOT_HEADING,))
+    _planner_that_tries(room, monkeypatch, actions=0)
+    actuator = FakeActuator(room.obs.copy())
+    episodes = [room.learner.learning_episode(actuator, rng) for _ in range(20)]
+    assert all(e.mode is not Mode.GOAL and e.drawn is Mode.GOAL for e in episodes)
+    assert actuator.actions > 0  # the episodes still explore
+    assert aff.interest.n_goals == 0  # nothing was attempted: nothing recorded
+    # Each fallback is on record: goal babbling, then (a random controllable value, as
+    # unplannable) a random action; or a random primitive sequence straight away.
+    assert {e.fallbacks for e in episodes} == {
+        (Fallback.GOAL_NO_PLAN,), (Fallback.GOAL_NO_PLAN, Fallback.RANDOM_NO_PLAN)}
+    assert all(e.mode is Mode.RANDOM_ACTION for e in episodes)
+
+
+def test_goal_babbling_without_an_object_to_bind_is_a_recorded_fallback(monkeypatch):
+    room = Room(sigma=1.0)
+    rng = np.random.default_rng(0)
+    room.affordance(np.zeros(0, dtype=np.int64), (), inp=ROBOT_POSITION, out=TARGET_POSITION)
+    monkeypatch.setattr(room.learner, "select_binding", lambda aff, obs: None)
+    episode = room.learner.learning_episode(FakeActuator(room.obs.copy()), rng)
+    assert episode.drawn is Mode.GOAL
+    assert episode.fallbacks[0] is Fallback.GOAL_NO_OBJECT
+
+
+# ---------------------------------------------------------------------- p_A labels
+def test_p_a_is_taught_movers_as_positives_the_robot_and_in_vain_pushes_as_negatives():
+    room = Room()
+    rng = np.random.default_rng(0)
+    room.episode()
+    for a in np.linspace(0, 2 * np.pi, 30, endpoint=False):
+        room_push(room, "obj1", a, moves=True)
+    t = np.arange(len(room.dataset), dtype=np.int64)
+    rows = Rows(t, np.full(t.size, 1), np.full(t.size, -1))
+    aff = room.fitter.new_affordance(0, ROBOT_POSITION, TARGET_POSITION, (TARGET_ROBOT,),
+                                     rows, len(room.dataset), rng)
+    seen: list[tuple[np.ndarray, np.ndarray]] = []
+    aff.classifier.add = lambda f, y: seen.append((f.copy(), y.copy()))
+    aff.classifier.train = lambda rng, steps: 0.0
+    room.episode()
+    start = len(room.dataset)
+    room_push(room, "obj1", 0.0, moves=True)   # green, moves
+    room_push(room, "obj2", 0.0, moves=False)  # red, pushed in vain
+    sample = room.fitter.candidate_rows(aff.input, aff.output,
+                                        np.arange(start, len(room.dataset)))
+    room.adaptation._train_classifier(aff, sample, rng)
+    features, labels = seen[-1]
+    reader = room.learner.reader
+    by_entity = {e: reader.visual_features(room.obs, e) for e in range(4)}
+
+    def label_of(entity: int) -> list[bool]:
+        return [bool(y) for f, y in zip(features, labels, strict=True)
+                if np.allclose(f, by_entity[entity])]
+
+    assert label_of(1) == [True]
+    assert label_of(2) == [False]
+    assert label_of(0) == [False]  # the robot
+    assert label_of(3) == []  # never touched: no example
+
+
+def room_push(room: Room, obj: str, angle: float, moves: bool, blocked: bool = False) -> None:
+    """The robot at the origin, in contact behind `obj`, drives 0.1 m along `angle` (or,
+    `blocked`, tries to: neither moves)."""
+    u = np.array([np.cos(angle), np.sin(angle)])
+    room.place("robot", [0.0, 0.0])
+    room.set("robot", Property.HEADING, u)
+    parked = room.obs[room.layout.space(obj, Property.POSITION).slice].copy()
+    room.place(obj, 0.27 * u)
+    before = room.obs.copy()
+    room.place("robot", 0.0 if blocked else 0.1 * u)
+    room.place(obj, 0.27 * u + (0.09 * u if moves else 0.0))
+    room.dataset.append(np.array([1.0, 1.0]), before, room.obs.copy())
+    room.place(obj, parked)
+
+
+def test_object_selection_takes_the_closest_object_p_a_accepts():
+    """The closest object while p_A knows nothing; then the closest it accepts. Through a
+    tool: the object nearest the target among those the tool's controller accepts."""
+    room = Room()
+    for name, xy in (("obj1", [0.5, 0.0]), ("obj2", [0.3, 0.3]), ("obj3", [-0.8, 0.0])):
+        room.place(name, xy)
+    room.place("robot", [0.0, 0.0])
+    push = room.affordance(np.zeros(0, dtype=np.int64), (), inp=ROBOT_POSITION,
+                           out=TARGET_POSITION)
+    assert room.learner.select_binding(push, room.obs).target == 2
+    push.classifier = SimpleNamespace(n_positive=1, accepts=lambda f: f[:, 3] > 0.5)  # green
+    assert room.learner.select_binding(push, room.obs).target == 1
+    tool = room.affordance(np.zeros(0, dtype=np.int64), (), inp=TOOL_POSITION,
+                           out=TARGET_POSITION)
+    tool.classifier = SimpleNamespace(n_positive=1, accepts=lambda f: f[:, 0] < 0.45)  # small
+    binding = room.learner.select_binding(tool, room.obs)
+    assert (binding.target, binding.tool) == (3, 1)  # obj2, red, is no tool of the pusher's
+
+
+def test_the_effective_share_of_goal_babbling_counts_the_fallbacks():
+    from hadim_cli.runs import goal_babbling_share
+
+    def le(drawn, mode, *fallbacks):
+        return {"drawn": drawn, "mode": mode, "fallbacks": list(fallbacks)}
+
+    extras = [{"learning_episodes": [le("goal", "goal"), le("goal", "random-action",
+                                                           "goal-no-plan", "random-no-plan")]},
+              {"learning_episodes": [le("random-controllable", "random-action"),
+                                     le("goal", "random-controllable", "goal-no-object")]}]
+    share = goal_babbling_share(extras, 0.7)
+    assert share == {"sigma": 0.7, "learning_episodes": 4, "drawn": 0.75, "effective": 0.25,
+                     "fallbacks": {"goal-no-object": 1, "goal-no-plan": 1,
+                                   "random-no-plan": 1}}
+    # Episodes stored before the draw was recorded: the effective share only.
+    old = [{"learning_episodes": [{"mode": "goal"}, {"mode": "random-action"}]}]
+    assert goal_babbling_share(old, 0.7) == {"sigma": 0.7, "learning_episodes": 2,
+                                             "drawn": None, "effective": 0.5,
+                                             "fallbacks": None}
+
+
+@pytest.mark.parametrize("on", [False, True])
+def test_an_object_that_stops_the_robot_teaches_p_a_with_blocked_pushes(on):
+    """A red object the robot drives into stops it: the pushing affordance's input (the
+    robot's displacement) did not change, so the row is outside its domain. With
+    `p_a_blocked_pushes`, the robot's motion model says the robot meant to move into it, the
+    push model says that would have pushed it, and it becomes a negative of p_A."""
+    room = Room(p_a_blocked_pushes=on)
+    rng = np.random.default_rng(0)
+    room.episode()
+    room.affordance(room.moves(rng, 300), (ROBOT_HEADING,))  # the robot's motion model
+    start = len(room.dataset)
+    for a in np.linspace(0, 2 * np.pi, 30, endpoint=False):
+        room_push(room, "obj1", a, moves=True)
+    t = np.arange(start, len(room.dataset), dtype=np.int64)
+    push = room.affordance(t, (TARGET_ROBOT,), inp=ROBOT_POSITION, out=TARGET_POSITION)
+    push.rows = Rows(t, np.full(t.size, 1), np.full(t.size, -1))
+    push.model = room.fitter.fit(push.input, push.output, push.contexts, push.rows)
+    room.episode()
+    start = len(room.dataset)
+    room_push(room, "obj1", 0.0, moves=True)
+    room_push(room, "obj2", 0.0, moves=False, blocked=True)  # red: stops the robot
+    blocked = room.adaptation._blocked_in_vain(push, np.arange(start, len(room.dataset)))
+    if not on:
+        assert blocked is None
+        return
+    assert blocked is not None and blocked.target.tolist() == [2]
+    seen: list[tuple[np.ndarray, np.ndarray]] = []
+    push.classifier.add = lambda f, y: seen.append((f.copy(), y.copy()))
+    push.classifier.train = lambda rng, steps: 0.0
+    room.adaptation._update(push, np.arange(start, len(room.dataset)), len(room.dataset), rng)
+    features, labels = seen[-1]
+    red = room.learner.reader.visual_features(room.obs, 2)
+    assert [bool(y) for f, y in zip(features, labels, strict=True) if np.allclose(f, red)] == \
+        [False]
+
+
+def test_a_blocked_push_in_an_episode_where_nothing_moved_still_teaches_p_a(monkeypatch):
+    """Nothing moved in the learning episode (the robot drove into a red object): no output
+    space is non-null, no affordance is updated, and p_A still gets its negative."""
+    room = Room(p_a_blocked_pushes=True)
+    rng = np.random.default_rng(0)
+    room.episode()
+    room.affordance(room.moves(rng, 300), (ROBOT_HEADING,))
+    start = len(room.dataset)
+    for a in np.linspace(0, 2 * np.pi, 30, endpoint=False):
+        room_push(room, "obj1", a, moves=True)
+    t = np.arange(start, len(room.dataset), dtype=np.int64)
+    push = room.affordance(t, (TARGET_ROBOT,), inp=ROBOT_POSITION, out=TARGET_POSITION)
+    push.rows = Rows(t, np.full(t.size, 1), np.full(t.size, -1))
+    push.model = room.fitter.fit(push.input, push.output, push.contexts, push.rows)
+    taught: list[np.ndarray] = []
+    monkeypatch.setattr(push.classifier, "add", lambda f, y: taught.append(y.copy()))
+    monkeypatch.setattr(push.classifier, "train", lambda rng, steps: 0.0)
+    room.episode()
+    start = len(room.dataset)
+    room_push(room, "obj2", 0.0, moves=False, blocked=True)
+    room.adaptation.run(start, len(room.dataset), len(room.dataset), 0, rng)
+    assert [y.tolist() for y in taught] == [[False, False]]  # the red object, the robot
