@@ -1,0 +1,159 @@
+"""Long sessions (issue #13): delta checkpoints restore exactly across full-snapshot boundaries,
+a store written by schema 1 (fixtures/store_v1.sqlite) opens and resumes, and everything a
+learner's checkpoint holds that grows with the run grows at its end (so deltas stay small)."""
+
+from __future__ import annotations
+
+import json
+import shutil
+import sqlite3
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from hadim_cli import runs
+from hadim_cli.app import app
+from hadim_cli.config import load_config
+from hadim_cli.session import Session
+from store import Store
+
+SEED = 5
+N = 300
+SHORT_EPISODES = ("--set", "world.episode_length=50")
+FIXTURE = Path(__file__).parent / "fixtures" / "store_v1.sqlite"
+
+
+def ok(runner, *args: object):
+    result = runner.invoke(app, [str(a) for a in args])
+    assert result.exit_code == 0, (args, result.stderr, result.exception)
+    return result
+
+
+def train(runner, store: Path, iterations: int, *extra: object) -> str:
+    out = ok(runner, "train", "--iterations", iterations, "--eval-every", 0, "--store", store,
+             "--seed", SEED, *SHORT_EPISODES, *extra).stdout
+    return out.strip().splitlines()[0]
+
+
+def show(runner, store: Path, run: str) -> dict:
+    return json.loads(ok(runner, "runs", "show", run, "--json", "--store", store).stdout)
+
+
+def affordances(runner, store: Path, run: str) -> list:
+    return json.loads(ok(runner, "affordances", run, "--json", "--store", store).stdout)
+
+
+def full_snapshots(store: Path, run: str) -> list[int]:
+    con = sqlite3.connect(store)
+    try:
+        return [it for (it,) in con.execute(
+            "SELECT c.iteration FROM checkpoints c JOIN runs r ON r.id = c.run_id "
+            "WHERE r.name = ? AND c.base_iteration IS NULL ORDER BY c.iteration", (run,))]
+    finally:
+        con.close()
+
+
+def test_resume_and_fork_are_exact_across_snapshot_boundaries(runner, tmp_path, monkeypatch):
+    monkeypatch.setenv(runs.SNAPSHOT_ENV, "2")
+    store = tmp_path / "s.sqlite"
+    whole = train(runner, store, N)
+    assert full_snapshots(store, whole) == [50, 150, 250]
+    half = train(runner, store, 150)
+    ok(runner, "resume", half, "--iterations", N, "--eval-every", 0, "--store", store)
+    # The resumed process starts a chain of its own: a full snapshot first.
+    assert full_snapshots(store, half) == [50, 150, 200, 300]
+    child = ok(runner, "fork", whole, "--at", 200, "--store", store).stdout.strip()  # a delta
+    ok(runner, "resume", child, "--iterations", N, "--eval-every", 0, "--store", store)
+    digests = {show(runner, store, r)["dataset_sha256"] for r in (whole, half, child)}
+    assert len(digests) == 1
+    h = affordances(runner, store, whole)
+    assert h and h == affordances(runner, store, half) == affordances(runner, store, child)
+
+    # Every checkpoint of the delta-chained run holds what a store of full snapshots holds.
+    monkeypatch.setenv(runs.SNAPSHOT_ENV, "1")
+    plain_store = tmp_path / "plain.sqlite"
+    plain = train(runner, plain_store, N)
+    assert full_snapshots(plain_store, plain) == list(range(50, N + 1, 50))
+    with Store.open(store) as a, Store.open(plain_store) as b:
+        for it in range(50, N + 1, 50):
+            x, y = a.checkpoint(whole, it), b.checkpoint(plain, it)
+            assert x.json == y.json
+            assert sorted(x.arrays) == sorted(y.arrays)
+            for key, value in x.arrays.items():
+                assert value.dtype == y.arrays[key].dtype, key
+                assert value.tobytes() == y.arrays[key].tobytes(), key
+
+
+def test_a_bad_snapshot_interval_is_one_error_line(runner, tmp_path, monkeypatch):
+    monkeypatch.setenv(runs.SNAPSHOT_ENV, "0")
+    result = runner.invoke(app, ["train", "--iterations", "50", "--store",
+                                 str(tmp_path / "s.sqlite")])
+    assert result.exit_code == 2
+    assert result.stderr.strip().startswith(f"error: {runs.SNAPSHOT_ENV}=")
+
+
+def test_a_schema_1_store_opens_and_resumes_exactly(runner, tmp_path):
+    """fixtures/store_v1.sqlite: `hadim train --iterations 100 --seed 5 --eval-every 0 --set
+    world.episode_length=50`, written by commit 11078ae (schema 1, checkpoint format 1: models
+    with their rows). Migrated on open, it resumes as if it had never stopped."""
+    store = tmp_path / "old.sqlite"
+    shutil.copyfile(FIXTURE, store)
+    con = sqlite3.connect(store)
+    assert con.execute("SELECT value FROM meta WHERE key = 'schema_version'").fetchone() == ("1",)
+    con.close()
+    assert show(runner, store, "run-1")["iterations"] == 100
+    ok(runner, "resume", "run-1", "--iterations", 200, "--eval-every", 0, "--store", store)
+    fresh = train(runner, store, 200)
+    assert show(runner, store, "run-1")["dataset_sha256"] == \
+        show(runner, store, fresh)["dataset_sha256"]
+    assert affordances(runner, store, "run-1") == affordances(runner, store, fresh)
+    con = sqlite3.connect(store)
+    try:
+        assert con.execute(
+            "SELECT value FROM meta WHERE key = 'schema_version'").fetchone() == ("2",)
+        keys = {k for (k,) in con.execute(
+            "SELECT i.key FROM checkpoint_items i JOIN checkpoints c ON c.id = i.checkpoint_id "
+            "JOIN runs r ON r.id = c.run_id WHERE r.name = 'run-1' AND c.iteration = 100")}
+    finally:
+        con.close()
+    assert "aff0.model.x" in keys  # the old checkpoint, read as it was written
+
+
+# Keys of a learner checkpoint that may change other than at their end: small fixed-size state
+# (p_A's weights, optimiser and replay; an interest tree's nodes; a model's dimensions,
+# parameters and index sizes) and an interest map's goal→region column, rewritten when a
+# region splits.
+_REWRITTEN = (".classifier.", ".interest.node_", ".interest.goal_region", ".model.")
+
+
+def test_a_learner_checkpoint_grows_only_at_its_end():
+    cfg = load_config(None, ["world.episode_length=50", "learner.interest_max_goals=4"])
+    session = Session(cfg, SEED)
+    previous: dict[str, np.ndarray] = {}
+    extended = set()
+
+    def check(_log) -> None:
+        meta, arrays = runs.session_state(session)
+        assert not any(k.split(".")[-1] in ("x", "c", "y") and ".model." in k for k in arrays)
+        for key, now in arrays.items():
+            before = previous.get(key)
+            if before is None or now.ndim == 0 or any(part in key for part in _REWRITTEN):
+                continue
+            assert now.shape[0] >= before.shape[0], key
+            assert now[:before.shape[0]].tobytes() == before.tobytes(), key
+            if now.shape[0] > before.shape[0]:
+                extended.add(key.split(".", 1)[1])
+        previous.clear()
+        previous.update({k: v.copy() for k, v in arrays.items()})
+        assert isinstance(meta["events"], list) and "events" not in meta["learner"]
+
+    session.run(400, check)
+    assert {"rows.t", "history", "interest.goals"} <= extended
+
+
+@pytest.mark.parametrize("every", ["x", "-3"])
+def test_snapshot_interval_must_be_a_positive_integer(every, monkeypatch):
+    monkeypatch.setenv(runs.SNAPSHOT_ENV, every)
+    with pytest.raises(runs.HadimError, match=runs.SNAPSHOT_ENV):
+        runs.snapshot_every()
