@@ -157,3 +157,18 @@ def test_snapshot_interval_must_be_a_positive_integer(every, monkeypatch):
     monkeypatch.setenv(runs.SNAPSHOT_ENV, every)
     with pytest.raises(runs.HadimError, match=runs.SNAPSHOT_ENV):
         runs.snapshot_every()
+
+
+def test_bench_train_reports_store_bytes_and_memory_per_block(runner):
+    out = ok(runner, "bench", "train", "--iterations", 100, "--block", 50, "--store", "--json",
+             *SHORT_EPISODES).stdout
+    result = json.loads(out)
+    assert result["iterations"] == 100 and result["wall_s"] > 0
+    assert result["iterations_per_s"] > 0
+    blocks = result["blocks"]
+    assert [(b["start"], b["stop"]) for b in blocks] == [(0, 50), (50, 100)]
+    assert 0 < blocks[0]["store_bytes"] < blocks[1]["store_bytes"]
+    assert result["store_bytes"] > 0
+    assert all(b["rss_bytes"] > 10_000_000 for b in blocks)  # a Python with numpy and torch
+    table = ok(runner, "bench", "train", "--iterations", 50, *SHORT_EPISODES).stdout
+    assert "RSS MB" in table and "store MB" in table
