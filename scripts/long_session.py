@@ -1,0 +1,179 @@
+"""A long learning session, measured: `hadim train` (or `hadim resume`) under a sampler.
+
+    python scripts/long_session.py --store long.sqlite --iterations 100000   # run / resume
+    python scripts/long_session.py --store long.sqlite --report              # the tables
+
+Runs the session named `--name` (default `long`, seed 0, default config, evaluation every
+`--eval-every` iterations) in a child process, resuming it if the store already has it, and
+every `--sample-every` seconds appends to `<store>.samples.jsonl` the run's stored iterations,
+the store's bytes on disk and the child's resident memory. Stopping this script (Ctrl-C) stops
+the child after its episode; run it again to continue.
+
+`--report` prints, per block of `--block` iterations: iterations per second (from the
+checkpoints' timestamps, one per episode, leaving out episodes that include an evaluation or
+a pause between sessions), the bytes the run has stored by the block's end (from the tables,
+so a fork or another run in the file does not count) and per iteration, the largest resident
+memory sampled in the block, the number of affordances, and the evaluation scores.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import signal
+import sqlite3
+import subprocess
+import sys
+import time
+from datetime import datetime
+from pathlib import Path
+
+_GAP_S = 300.0
+"""An episode longer than this spans a pause between two sessions: not timed."""
+
+
+def _file_bytes(path: Path) -> int:
+    return sum(p.stat().st_size for p in path.parent.glob(path.name + "*")
+               if p.is_file() and not p.name.endswith(".jsonl"))
+
+
+def _rss(pid: int) -> int:
+    try:
+        with open(f"/proc/{pid}/status") as handle:
+            for line in handle:
+                if line.startswith("VmRSS:"):
+                    return int(line.split()[1]) * 1024
+    except OSError:
+        pass
+    return 0
+
+
+def _connect(store: Path) -> sqlite3.Connection:
+    return sqlite3.connect(f"{store.resolve().as_uri()}?mode=ro", uri=True)
+
+
+def _iterations(store: Path, name: str) -> int:
+    try:
+        con = _connect(store)
+        try:
+            row = con.execute("SELECT iterations FROM runs WHERE name = ?", (name,)).fetchone()
+        finally:
+            con.close()
+    except sqlite3.Error:
+        return 0
+    return int(row[0]) if row else 0
+
+
+def run(args: argparse.Namespace) -> None:
+    store, name = Path(args.store), args.name
+    exists = store.exists() and _iterations(store, name) > 0
+    cli = [sys.executable, "-m", "hadim_cli.app"]
+    if exists:
+        cmd = [*cli, "resume", name, "--iterations", str(args.iterations)]
+    else:
+        cmd = [*cli, "train", "--name", name, "--seed", str(args.seed),
+               "--iterations", str(args.iterations)]
+    cmd += ["--eval-every", str(args.eval_every), "--store", str(store)]
+    child = subprocess.Popen(["nice", "-n", str(args.nice), *cmd])
+    log = Path(str(store) + ".samples.jsonl")
+    try:
+        while child.poll() is None:
+            sample = {"time": time.time(), "iterations": _iterations(store, name),
+                      "store_bytes": _file_bytes(store), "rss_bytes": _rss(child.pid)}
+            with log.open("a") as handle:
+                handle.write(json.dumps(sample) + "\n")
+            time.sleep(args.sample_every)
+    except KeyboardInterrupt:
+        child.send_signal(signal.SIGINT)
+        child.wait()
+    sys.exit(child.returncode)
+
+
+def _stored_bytes(con: sqlite3.Connection, run_id: int, upto: int) -> int:
+    """Bytes of the run's rows stored by iteration `upto` (blobs and texts)."""
+    q = [
+        ("SELECT sum(length(actions) + length(contexts) + length(outcomes) + length(extra_json))"
+         " FROM episodes WHERE run_id = ? AND first_iteration + n_iterations <= ?"),
+        ("SELECT sum(coalesce(length(i.data), 0) + coalesce(length(i.text), 0) + length(i.key))"
+         " FROM checkpoint_items i JOIN checkpoints c ON c.id = i.checkpoint_id"
+         " WHERE c.run_id = ? AND c.iteration <= ?"),
+        ("SELECT sum(length(context_json) + length(detail_json) + 64) FROM affordance_events"
+         " WHERE run_id = ? AND iteration <= ?"),
+        "SELECT count(*) * 48 FROM affordance_stats WHERE run_id = ? AND iteration <= ?",
+        ("SELECT sum(length(low_json) + length(high_json) + 56) FROM interest_regions"
+         " WHERE run_id = ? AND iteration <= ?"),
+    ]
+    return sum(int(con.execute(sql, (run_id, upto)).fetchone()[0] or 0) for sql in q)
+
+
+def report(args: argparse.Namespace) -> None:
+    store, name, block = Path(args.store), args.name, args.block
+    con = _connect(store)
+    run_id, total = con.execute("SELECT id, iterations FROM runs WHERE name = ?",
+                                (name,)).fetchone()
+    stamps = [(it, datetime.fromisoformat(str(at))) for it, at in con.execute(
+        "SELECT iteration, created_at FROM checkpoints WHERE run_id = ? ORDER BY iteration",
+        (run_id,))]
+    evals = {}
+    for it, task, score in con.execute(
+            "SELECT iteration, task, score FROM evaluations WHERE run_id = ?", (run_id,)):
+        evals.setdefault(it, {})[task] = score
+    log = Path(str(store) + ".samples.jsonl")
+    samples = [json.loads(line) for line in log.read_text().splitlines()] if log.exists() else []
+    edges = sorted({*range(0, total + 1, block), *args.extra_blocks, total})
+    pairs = list(zip(edges, edges[1:], strict=False))
+    rows = []
+    for lo, hi in pairs:
+        secs, its = 0.0, 0
+        for (i0, t0), (i1, t1) in zip(stamps, stamps[1:], strict=False):
+            if lo <= i0 and i1 <= hi:
+                dt = (t1 - t0).total_seconds()
+                if dt < _GAP_S and not any(i0 <= e < i1 for e in evals):
+                    secs, its = secs + dt, its + (i1 - i0)
+        rss = max((s["rss_bytes"] for s in samples if lo < s["iterations"] <= hi), default=0)
+        n_aff = con.execute("SELECT count(*) FROM affordance_stats WHERE run_id = ? AND "
+                            "iteration = (SELECT max(iteration) FROM affordance_stats WHERE "
+                            "run_id = ? AND iteration <= ?)", (run_id, run_id, hi)).fetchone()[0]
+        stored = _stored_bytes(con, run_id, hi)
+        rows.append({"start": lo, "stop": hi, "iterations_per_s": its / secs if secs else None,
+                     "stored_bytes": stored, "bytes_per_iteration": stored / max(hi, 1),
+                     "rss_bytes": rss, "affordances": n_aff, "scores": evals.get(hi, {})})
+    con.close()
+    if args.json:
+        print(json.dumps({"run": name, "iterations": total, "file_bytes": _file_bytes(store),
+                          "blocks": rows}))
+        return
+    print("| iterations | it/s | stored MB | bytes/it | RSS MB | H | move / push / tool |")
+    print("|---|---|---|---|---|---|---|")
+    for r in rows:
+        s = r["scores"]
+        scores = " / ".join(f"{s[t]:.3f}" for t in ("move-robot", "push-object",
+                                                     "push-with-tool") if t in s) or "–"
+        ips = f"{r['iterations_per_s']:.1f}" if r["iterations_per_s"] else "–"
+        print(f"| {r['start']}–{r['stop']} | {ips} | {r['stored_bytes'] / 1e6:.1f} | "
+              f"{r['bytes_per_iteration']:.0f} | {r['rss_bytes'] / 1e6:.0f} | "
+              f"{r['affordances']} | {scores} |")
+    print(f"file on disk: {_file_bytes(store) / 1e6:.1f} MB")
+
+
+def main() -> None:
+    p = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    p.add_argument("--store", required=True)
+    p.add_argument("--name", default="long")
+    p.add_argument("--iterations", type=int, default=100_000)
+    p.add_argument("--seed", type=int, default=0)
+    p.add_argument("--eval-every", type=int, default=5000)
+    p.add_argument("--sample-every", type=float, default=20.0)
+    p.add_argument("--nice", type=int, default=10)
+    p.add_argument("--report", action="store_true")
+    p.add_argument("--block", type=int, default=5000)
+    p.add_argument("--extra-blocks", type=int, nargs="*", default=[3500, 4000, 45000, 50000])
+    p.add_argument("--json", action="store_true")
+    args = p.parse_args()
+    os.environ.setdefault("PYTHONUNBUFFERED", "1")
+    (report if args.report else run)(args)
+
+
+if __name__ == "__main__":
+    main()
