@@ -172,3 +172,56 @@ def test_bench_train_reports_store_bytes_and_memory_per_block(runner):
     assert all(b["rss_bytes"] > 10_000_000 for b in blocks)  # a Python with numpy and torch
     table = ok(runner, "bench", "train", "--iterations", 50, *SHORT_EPISODES).stdout
     assert "RSS MB" in table and "store MB" in table
+
+
+def _same(a: np.ndarray, b: np.ndarray) -> bool:
+    return a.shape == b.shape and a.dtype == b.dtype and a.tobytes() == b.tobytes()
+
+
+def test_kept_candidate_rows_are_those_read_from_all_of_d():
+    """Creation trials read the candidate rows of all of D; the Fitter keeps them and reads
+    only the iterations added since. The kept rows must be the full read, bit for bit."""
+    from hadim_cli.learner.spaces import ACTION, Role, RoleSpace
+    from hadim_cli.world.layout import Property
+
+    cfg = load_config(None, ["world.episode_length=50"])
+    session = Session(cfg, SEED)
+    fitter = session.learner.fitter
+    pairs = [(ACTION, RoleSpace(Role.ROBOT, Property.POSITION)),
+             (ACTION, RoleSpace(Role.TARGET, Property.POSITION)),
+             (RoleSpace(Role.TOOL, Property.POSITION), RoleSpace(Role.TARGET, Property.POSITION))]
+    seen = []
+
+    def check(_log) -> None:
+        t = np.arange(len(session.learner.dataset), dtype=np.int64)
+        for inp, out in pairs:
+            kept, fresh = fitter.all_candidates(inp, out), fitter.candidate_rows(inp, out, t)
+            for a, b in ((kept.rows.t, fresh.rows.t), (kept.rows.target, fresh.rows.target),
+                         (kept.rows.tool, fresh.rows.tool), (kept.x, fresh.x), (kept.y, fresh.y)):
+                assert _same(a, b)
+            seen.append(len(kept.rows))
+
+    session.run(200, check)
+    assert seen[-1] > seen[0] > 0
+
+
+def test_a_models_step_size_is_kept_until_it_has_new_rows():
+    from hadim_cli.learner.affordance import per_model
+    from hadim_cli.learner.models import LocalLinearModel
+
+    rng = np.random.default_rng(0)
+    model = LocalLinearModel(2, 2)
+    model.add(rng.normal(size=(30, 2)), None, rng.normal(size=(30, 2)))
+    calls = []
+
+    def top(y: np.ndarray) -> float:
+        calls.append(len(y))
+        return float(np.abs(y).max())
+
+    first = per_model(model, ("top",), top)
+    assert per_model(model, ("top",), top) == first and calls == [30]
+    model.add(np.zeros((1, 2)), None, np.full((1, 2), 100.0))
+    assert per_model(model, ("top",), top) == 100.0 and calls == [30, 31]
+    other = LocalLinearModel(2, 2)
+    other.add(np.zeros((3, 2)), None, np.ones((3, 2)))
+    assert per_model(other, ("top",), top) == 1.0  # per model, not shared
