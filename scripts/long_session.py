@@ -77,16 +77,19 @@ def run(args: argparse.Namespace) -> None:
     cmd += ["--eval-every", str(args.eval_every), "--store", str(store)]
     child = subprocess.Popen(["nice", "-n", str(args.nice), *cmd])
     log = Path(str(store) + ".samples.jsonl")
-    try:
-        while child.poll() is None:
-            sample = {"time": time.time(), "iterations": _iterations(store, name),
-                      "store_bytes": _file_bytes(store), "rss_bytes": _rss(child.pid)}
-            with log.open("a") as handle:
-                handle.write(json.dumps(sample) + "\n")
-            time.sleep(args.sample_every)
-    except KeyboardInterrupt:
+
+    def pause(_signum, _frame) -> None:  # the child checkpoints after its episode and stops
         child.send_signal(signal.SIGINT)
-        child.wait()
+
+    # Installed explicitly: a script started in the background inherits SIGINT ignored.
+    signal.signal(signal.SIGINT, pause)
+    signal.signal(signal.SIGTERM, pause)
+    while child.poll() is None:
+        sample = {"time": time.time(), "iterations": _iterations(store, name),
+                  "store_bytes": _file_bytes(store), "rss_bytes": _rss(child.pid)}
+        with log.open("a") as handle:
+            handle.write(json.dumps(sample) + "\n")
+        time.sleep(args.sample_every)
     sys.exit(child.returncode)
 
 
