@@ -11,9 +11,17 @@ the child after its episode; run it again to continue.
 
 `--report` prints, per block of `--block` iterations: iterations per second (from the
 checkpoints' timestamps, one per episode, leaving out episodes that include an evaluation or
-a pause between sessions), the bytes the run has stored by the block's end (from the tables,
-so a fork or another run in the file does not count) and per iteration, the largest resident
-memory sampled in the block, the number of affordances, and the evaluation scores.
+a pause between sessions), iterations per CPU-second of the training process (from the
+samples, leaving out intervals with an evaluation: on a shared machine wall-clock rates
+follow the machine's load, CPU rates much less), the bytes the run has stored by the block's
+end (from the tables, so a fork or another run in the file does not count) and per iteration,
+the largest resident memory sampled in the block, the number of affordances, and the
+evaluation scores.
+
+`--time-restore [--at T]` restores the run's checkpoint at or before T (the last if not given)
+as `hadim resume` does, without writing anything, and prints the seconds to import torch
+(which any hadim process pays once), to read the checkpoint and D and rebuild the learner, and
+from there to the first new iteration.
 """
 
 from __future__ import annotations
@@ -47,6 +55,16 @@ def _rss(pid: int) -> int:
     except OSError:
         pass
     return 0
+
+
+def _cpu_seconds(pid: int) -> float:
+    """User + system CPU seconds of a process so far (0 if unreadable)."""
+    try:
+        with open(f"/proc/{pid}/stat") as handle:
+            fields = handle.read().rsplit(")", 1)[1].split()
+        return (int(fields[11]) + int(fields[12])) / os.sysconf("SC_CLK_TCK")
+    except (OSError, ValueError, IndexError):
+        return 0.0
 
 
 def _connect(store: Path) -> sqlite3.Connection:
@@ -86,7 +104,8 @@ def run(args: argparse.Namespace) -> None:
     signal.signal(signal.SIGTERM, pause)
     while child.poll() is None:
         sample = {"time": time.time(), "iterations": _iterations(store, name),
-                  "store_bytes": _file_bytes(store), "rss_bytes": _rss(child.pid)}
+                  "store_bytes": _file_bytes(store), "rss_bytes": _rss(child.pid),
+                  "cpu_s": _cpu_seconds(child.pid), "pid": child.pid}
         with log.open("a") as handle:
             handle.write(json.dumps(sample) + "\n")
         time.sleep(args.sample_every)
@@ -124,8 +143,10 @@ def report(args: argparse.Namespace) -> None:
         evals.setdefault(it, {})[task] = score
     log = Path(str(store) + ".samples.jsonl")
     samples = [json.loads(line) for line in log.read_text().splitlines()] if log.exists() else []
-    edges = sorted({*range(0, total + 1, block), *args.extra_blocks, total})
+    edges = sorted({*range(0, total + 1, block), total})
     pairs = list(zip(edges, edges[1:], strict=False))
+    extra = args.extra_blocks
+    pairs += [(lo, hi) for lo, hi in zip(extra[::2], extra[1::2], strict=False) if hi <= total]
     rows = []
     for lo, hi in pairs:
         secs, its = 0.0, 0
@@ -135,11 +156,20 @@ def report(args: argparse.Namespace) -> None:
                 if dt < _GAP_S and not any(i0 <= e < i1 for e in evals):
                     secs, its = secs + dt, its + (i1 - i0)
         rss = max((s["rss_bytes"] for s in samples if lo < s["iterations"] <= hi), default=0)
+        cpu, cpu_its = 0.0, 0
+        for a, b in zip(samples, samples[1:], strict=False):
+            same = a.get("pid") is not None and a.get("pid") == b.get("pid")
+            if same and lo <= a["iterations"] and b["iterations"] <= hi \
+                    and not any(a["iterations"] <= e < b["iterations"] or e == a["iterations"]
+                                for e in evals):
+                cpu, cpu_its = cpu + b["cpu_s"] - a["cpu_s"], cpu_its + b["iterations"] \
+                    - a["iterations"]
         n_aff = con.execute("SELECT count(*) FROM affordance_stats WHERE run_id = ? AND "
                             "iteration = (SELECT max(iteration) FROM affordance_stats WHERE "
                             "run_id = ? AND iteration <= ?)", (run_id, run_id, hi)).fetchone()[0]
         stored = _stored_bytes(con, run_id, hi)
         rows.append({"start": lo, "stop": hi, "iterations_per_s": its / secs if secs else None,
+                     "iterations_per_cpu_s": cpu_its / cpu if cpu > 0 else None,
                      "stored_bytes": stored, "bytes_per_iteration": stored / max(hi, 1),
                      "rss_bytes": rss, "affordances": n_aff, "scores": evals.get(hi, {})})
     con.close()
@@ -147,17 +177,47 @@ def report(args: argparse.Namespace) -> None:
         print(json.dumps({"run": name, "iterations": total, "file_bytes": _file_bytes(store),
                           "blocks": rows}))
         return
-    print("| iterations | it/s | stored MB | bytes/it | RSS MB | H | move / push / tool |")
-    print("|---|---|---|---|---|---|---|")
+    print("| iterations | it/s (wall) | it/CPU-s | stored MB | bytes/it | RSS MB | H | "
+          "move / push / tool |")
+    print("|---|---|---|---|---|---|---|---|")
     for r in rows:
         s = r["scores"]
         scores = " / ".join(f"{s[t]:.3f}" for t in ("move-robot", "push-object",
                                                      "push-with-tool") if t in s) or "–"
         ips = f"{r['iterations_per_s']:.1f}" if r["iterations_per_s"] else "–"
-        print(f"| {r['start']}–{r['stop']} | {ips} | {r['stored_bytes'] / 1e6:.1f} | "
+        cps = f"{r['iterations_per_cpu_s']:.1f}" if r["iterations_per_cpu_s"] else "–"
+        print(f"| {r['start']}–{r['stop']} | {ips} | {cps} | {r['stored_bytes'] / 1e6:.1f} | "
               f"{r['bytes_per_iteration']:.0f} | {r['rss_bytes'] / 1e6:.0f} | "
               f"{r['affordances']} | {scores} |")
     print(f"file on disk: {_file_bytes(store) / 1e6:.1f} MB")
+
+
+def time_restore(args: argparse.Namespace) -> None:
+    t0 = time.perf_counter()
+    # Timed apart: every process that trains p_A pays it once (Adam imports torch._dynamo).
+    import torch._dynamo  # noqa: F401
+
+    from hadim_cli import runs
+    from store import Store
+
+    t1 = time.perf_counter()
+    with Store.open(args.store, create=False) as store:
+        session = runs.restore_session(store, store.get_run(args.name), args.at)
+    t2 = time.perf_counter()
+    first: list[float] = []
+    step = session.world.step
+
+    def timed(action):
+        out = step(action)
+        first.append(time.perf_counter())
+        return out
+
+    session.world.step = timed
+    session.run_episode()
+    print(json.dumps({"iteration": session.iteration - len(first), "import_torch_s":
+                      round(t1 - t0, 2), "restore_s": round(t2 - t1, 2),
+                      "first_iteration_s": round(first[0] - t2, 2),
+                      "restore_to_first_iteration_s": round(first[0] - t1, 2)}))
 
 
 def main() -> None:
@@ -171,11 +231,14 @@ def main() -> None:
     p.add_argument("--nice", type=int, default=10)
     p.add_argument("--report", action="store_true")
     p.add_argument("--block", type=int, default=5000)
-    p.add_argument("--extra-blocks", type=int, nargs="*", default=[3500, 4000, 45000, 50000])
+    p.add_argument("--extra-blocks", type=int, nargs="*", default=[3500, 4000, 45000, 50000],
+                   help="more blocks to report, as start stop pairs")
     p.add_argument("--json", action="store_true")
+    p.add_argument("--time-restore", action="store_true")
+    p.add_argument("--at", type=int, default=None)
     args = p.parse_args()
     os.environ.setdefault("PYTHONUNBUFFERED", "1")
-    (report if args.report else run)(args)
+    (report if args.report else time_restore if args.time_restore else run)(args)
 
 
 if __name__ == "__main__":
