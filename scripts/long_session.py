@@ -21,7 +21,9 @@ evaluation scores.
 `--time-restore [--at T]` restores the run's checkpoint at or before T (the last if not given)
 as `hadim resume` does, without writing anything, and prints the seconds to import torch
 (which any hadim process pays once), to read the checkpoint and D and rebuild the learner, and
-from there to the first new iteration.
+from there to the first new iteration. With `--then N` it goes on for N iterations (whole
+episodes, nothing stored) and prints their wall and CPU seconds: the cost per iteration at
+that point of the run, measured in CPU time, which a shared machine's load changes little.
 """
 
 from __future__ import annotations
@@ -213,11 +215,18 @@ def time_restore(args: argparse.Namespace) -> None:
         return out
 
     session.world.step = timed
-    session.run_episode()
-    print(json.dumps({"iteration": session.iteration - len(first), "import_torch_s":
-                      round(t1 - t0, 2), "restore_s": round(t2 - t1, 2),
+    start = session.iteration
+    c0, w0 = time.process_time(), time.perf_counter()
+    session.run(start + max(args.then, 1))  # at least one episode
+    cpu, wall = time.process_time() - c0, time.perf_counter() - w0
+    done = session.iteration - start
+    print(json.dumps({"iteration": start, "import_torch_s": round(t1 - t0, 2),
+                      "restore_s": round(t2 - t1, 2),
                       "first_iteration_s": round(first[0] - t2, 2),
-                      "restore_to_first_iteration_s": round(first[0] - t1, 2)}))
+                      "restore_to_first_iteration_s": round(first[0] - t1, 2),
+                      "then_iterations": done, "then_wall_s": round(wall, 2),
+                      "then_cpu_s": round(cpu, 2),
+                      "iterations_per_cpu_s": round(done / max(cpu, 1e-9), 1)}))
 
 
 def main() -> None:
@@ -236,6 +245,7 @@ def main() -> None:
     p.add_argument("--json", action="store_true")
     p.add_argument("--time-restore", action="store_true")
     p.add_argument("--at", type=int, default=None)
+    p.add_argument("--then", type=int, default=0)
     args = p.parse_args()
     os.environ.setdefault("PYTHONUNBUFFERED", "1")
     (report if args.report else time_restore if args.time_restore else run)(args)
