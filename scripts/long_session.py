@@ -159,8 +159,12 @@ def report(args: argparse.Namespace) -> None:
                     secs, its = secs + dt, its + (i1 - i0)
         rss = max((s["rss_bytes"] for s in samples if lo < s["iterations"] <= hi), default=0)
         cpu, cpu_its = 0.0, 0
+        started: dict[int, int] = {}  # pid → iteration it resumed at: its restore is not timed
+        for x in samples:
+            started.setdefault(x.get("pid"), x["iterations"])
         for a, b in zip(samples, samples[1:], strict=False):
-            same = a.get("pid") is not None and a.get("pid") == b.get("pid")
+            same = a.get("pid") is not None and a.get("pid") == b.get("pid") \
+                and a["iterations"] > started[a["pid"]]
             if same and lo <= a["iterations"] and b["iterations"] <= hi \
                     and not any(a["iterations"] <= e < b["iterations"] or e == a["iterations"]
                                 for e in evals):
