@@ -38,8 +38,11 @@ if TYPE_CHECKING:
     from hadim_cli.session import EpisodeLog, Session
 
 STORE_ENV = "HADIM_STORE"
+SNAPSHOT_ENV = "HADIM_SNAPSHOT_EVERY"
+"""One checkpoint in this many is a full snapshot, the others deltas (store/deltas.py)."""
 DEFAULT_STORE = "hadim.sqlite"
-STATE_FORMAT = 1
+STATE_FORMAT = 2
+READABLE_STATE_FORMATS = (1, 2)
 
 
 def store_location(option: str | None) -> str:
@@ -63,7 +66,22 @@ def open_store(option: str | None, *, create: bool = True, writes: bool = True) 
     if writes and is_file and Path(where).is_file() and Path(where).stat().st_size > 0:
         engine.check_sqlite_file(Path(where), create=create)
         engine.require_intact(Path(where))
-    return Store.open(where, create=create)
+    return Store.open(where, create=create, snapshot_every=snapshot_every())
+
+
+def snapshot_every() -> int:
+    from store.deltas import DEFAULT_SNAPSHOT_EVERY
+
+    raw = os.environ.get(SNAPSHOT_ENV, "").strip()
+    if not raw:
+        return DEFAULT_SNAPSHOT_EVERY
+    try:
+        value = int(raw)
+    except ValueError:
+        value = 0
+    if value < 1:
+        raise HadimError(f"{SNAPSHOT_ENV}={raw!r}: give a whole number of checkpoints ≥ 1")
+    return value
 
 
 def package_versions() -> dict[str, str]:
@@ -86,9 +104,12 @@ def session_state(session: Session) -> tuple[dict[str, Any], dict[str, np.ndarra
     from hadim_cli.learner.state import learner_state
 
     meta, arrays = learner_state(session.learner)
+    # The timeline grows with the run: its own item, a list the store writes as a delta.
+    events = meta.pop("events")
     return {
         "format": STATE_FORMAT,
         "learner": meta,
+        "events": events,
         "episodes_done": session.episodes_done,
         "seed": session.seed,
         "rng": {"world": session.world_rng.bit_generator.state,
@@ -111,7 +132,7 @@ def restore_session(store: Store, run: RunRecord, at: int | None = None,
             raise HadimError(f"run {run.name} has no checkpoint at or before iteration {at}")
         return session
     meta = checkpoint.json
-    if meta.get("format") != STATE_FORMAT:
+    if meta.get("format") not in READABLE_STATE_FORMATS:
         raise HadimError(f"run {run.name}: checkpoint format {meta.get('format')!r} is not "
                          f"supported by this hadim")
     dataset = session.learner.dataset
@@ -124,7 +145,10 @@ def restore_session(store: Store, run: RunRecord, at: int | None = None,
                              f"objects and LIDAR cannot change within a run")
         dataset.extend(episode.actions, episode.contexts, episode.outcomes)
     try:
-        restore_learner(session.learner, meta["learner"], checkpoint.arrays)
+        learner_meta = dict(meta["learner"])
+        if "events" in meta:  # format 2 keeps the timeline apart
+            learner_meta["events"] = meta["events"]
+        restore_learner(session.learner, learner_meta, checkpoint.arrays)
     except (KeyError, ValueError) as exc:
         raise HadimError(f"run {run.name}: checkpoint at {checkpoint.iteration} is unusable: "
                          f"{exc}") from None

@@ -19,7 +19,7 @@ from sqlalchemy import Engine, Select, delete, func, insert, literal, select, te
 from sqlalchemy.exc import IntegrityError
 from sqlalchemy.orm import Session, sessionmaker
 
-from store import codecs, locking
+from store import codecs, deltas, locking
 from store import engine as engines
 from store.errors import RunLocked, StoreError, UnknownRun
 from store.models import (
@@ -102,13 +102,17 @@ class Store:
     Every method runs in its own transaction; writes are atomic.
     """
 
-    def __init__(self, engine: Engine, where: str, *, lock_timeout: float, compress: bool):
+    def __init__(self, engine: Engine, where: str, *, lock_timeout: float, compress: bool,
+                 snapshot_every: int = deltas.DEFAULT_SNAPSHOT_EVERY):
         self._engine = engine
         self._where = where
         self._sessions = sessionmaker(engine, expire_on_commit=False)
         self._sqlite = engine.dialect.name == "sqlite"
         self.lock_timeout = float(lock_timeout)
         self.compress = compress
+        self.snapshot_every = max(1, int(snapshot_every))
+        # run id → its last checkpoint written by this object: the base of the next delta.
+        self._last: dict[int, deltas.LastWritten] = {}
 
     @classmethod
     def open(
@@ -118,12 +122,15 @@ class Store:
         create: bool = True,
         lock_timeout: float = DEFAULT_LOCK_TIMEOUT_S,
         compress: bool = True,
+        snapshot_every: int = deltas.DEFAULT_SNAPSHOT_EVERY,
     ) -> Store:
         """Open (and with ``create``, initialise) the store at a path or SQLAlchemy URL.
 
         A file that is not SQLite, or a SQLite database that is not a hadim store, is refused
         with :class:`SchemaError` before anything is written to it. An older schema is
         migrated; a newer one is refused. ``compress`` deflates new arrays with zlib.
+        One checkpoint in ``snapshot_every`` that this object writes for a run is a full
+        snapshot, the others deltas (1: all full); see :mod:`store.deltas`.
         """
         resolved = engines.resolve_url(url)
         path = engines.sqlite_file(resolved)
@@ -136,7 +143,8 @@ class Store:
         except BaseException:
             engine.dispose()
             raise
-        return cls(engine, where, lock_timeout=lock_timeout, compress=compress)
+        return cls(engine, where, lock_timeout=lock_timeout, compress=compress,
+                   snapshot_every=snapshot_every)
 
     @property
     def where(self) -> str:
@@ -241,6 +249,7 @@ class Store:
             holder = _holder(row)
             if holder is not None and self._stale(holder) is None:
                 raise RunLocked(f"cannot delete run {name!r}: {_describe(holder)}")
+            self._last.pop(row.id, None)
             session.execute(delete(Run).where(Run.id == row.id))
 
     # ---------------------------------------------------------------- sweeps
@@ -289,19 +298,24 @@ class Store:
         the write is refused unless ``owner`` holds the run's lock, and refreshes its heartbeat.
         """
         _validate_episode(episode)
+        memory = None
         with self.session_scope() as session:
             run = _run_row(session, name)
             if owner is not None and run.lock_owner != owner:
                 raise RunLocked(f"run {name!r} is not locked by {owner!r}: not writing")
             _check_next_episode(session, run, episode)
-            self._add_episode_rows(session, run.id, episode)
+            memory = self._add_episode_rows(session, run, episode)
             now = _now()
             run.iterations = episode.end_iteration
             run.updated_at = now
             if owner is not None:
                 run.lock_heartbeat = time.time()
+        if memory is not None:  # only once committed: a failed write keeps the old base
+            self._last[run.id] = memory
 
-    def _add_episode_rows(self, session: Session, run_id: int, episode: EpisodeWrite) -> None:
+    def _add_episode_rows(self, session: Session, run: Run,
+                          episode: EpisodeWrite) -> deltas.LastWritten | None:
+        run_id = run.id
         codec = codecs.NPY_ZLIB if self.compress else codecs.NPY
         arrays = {
             key: codecs.encode_array(getattr(episode, key), compress=self.compress)
@@ -327,44 +341,51 @@ class Store:
         _insert(session, AffordanceStatRow, [tag | _stat_values(s) for s in episode.stats])
         _insert(session, InterestRegionRow, [tag | _region_values(r) for r in episode.regions])
         if episode.checkpoint_arrays is not None or episode.checkpoint_json is not None:
-            self._add_checkpoint(session, run_id, episode)
+            return self._add_checkpoint(session, run, episode)
+        return None
 
-    def _add_checkpoint(self, session: Session, run_id: int, episode: EpisodeWrite) -> None:
-        row = CheckpointRow(
-            run_id=run_id,
-            iteration=episode.end_iteration,
-            episode_index=episode.index,
-            created_at=_now(),
-        )
-        session.add(row)
-        session.flush()
+    def _add_checkpoint(self, session: Session, run: Run,
+                        episode: EpisodeWrite) -> deltas.LastWritten:
+        """Write the checkpoint, as a delta against the run's previous one when this object
+        wrote that one and it is still the run's latest; returns the memory for the next."""
         arrays = episode.checkpoint_arrays or {}
         texts = episode.checkpoint_json or {}
         clash = set(arrays) & set(texts)
         if clash:
             raise StoreError(f"checkpoint keys used for both an array and JSON: {sorted(clash)}")
-        kind = codecs.NPY_ZLIB if self.compress else codecs.NPY
-        items = [
-            {
-                "checkpoint_id": row.id,
-                "key": _item_key(key),
-                "kind": kind,
-                "text": None,
-                "data": codecs.encode_array(value, compress=self.compress),
-            }
-            for key, value in arrays.items()
-        ]
-        items += [
-            {
-                "checkpoint_id": row.id,
-                "key": _item_key(key),
-                "kind": "json",
-                "data": None,
-                "text": codecs.encode_json(value),
-            }
-            for key, value in texts.items()
-        ]
-        _insert(session, CheckpointItem, items)
+        base = self._delta_base(session, run)
+        encoded = deltas.checkpoint_items(
+            {_item_key(k): v for k, v in arrays.items()},
+            {_item_key(k): v for k, v in texts.items()},
+            compress=self.compress, base=base, snapshot_every=self.snapshot_every,
+            run_created=run.created_at, iteration=episode.end_iteration,
+        )
+        row = CheckpointRow(
+            run_id=run.id,
+            iteration=episode.end_iteration,
+            episode_index=episode.index,
+            created_at=_now(),
+            base_iteration=base.iteration if encoded.delta else None,
+        )
+        session.add(row)
+        session.flush()
+        _insert(session, CheckpointItem, [
+            {"checkpoint_id": row.id, "key": r.key, "kind": r.kind, "data": r.data,
+             "text": r.text, "prefix": r.prefix}
+            for r in encoded.rows
+        ])
+        encoded.memory.checkpoint_id = row.id
+        return encoded.memory
+
+    def _delta_base(self, session: Session, run: Run) -> deltas.LastWritten | None:
+        """The remembered last checkpoint of ``run``, if it is still the run's latest."""
+        last = self._last.get(run.id)
+        if last is None or last.run_created != run.created_at:
+            return None
+        latest = _checkpoint_row(session, run.id, None)
+        if latest is None or latest.id != last.checkpoint_id or latest.iteration != last.iteration:
+            return None
+        return last
 
     def episodes(self, name: str, upto_iteration: int | None = None) -> list[EpisodeRecord]:
         """Stored episodes in order; with ``upto_iteration=t``, those finished by iteration t."""
@@ -477,24 +498,36 @@ class Store:
             return [_region_record(row) for row in session.scalars(query)]
 
     def checkpoint(self, name: str, at_or_before: int | None = None) -> Checkpoint | None:
-        """The latest checkpoint at or before ``at_or_before`` (the last if None), or None."""
+        """The latest checkpoint at or before ``at_or_before`` (the last if None), or None.
+
+        A delta checkpoint is read with the chain of checkpoints back to its full snapshot."""
         upto = _check_iteration(at_or_before, "at_or_before")
         with self.session_scope(write=False) as session:
-            row = _checkpoint_row(session, _run_row(session, name).id, upto)
+            run_id = _run_row(session, name).id
+            row = _checkpoint_row(session, run_id, upto)
             if row is None:
                 return None
-            arrays: dict[str, np.ndarray] = {}
-            texts: dict[str, Any] = {}
+            chain = [row]
+            while chain[-1].base_iteration is not None:
+                base = session.scalar(select(CheckpointRow).where(
+                    CheckpointRow.run_id == run_id,
+                    CheckpointRow.iteration == chain[-1].base_iteration))
+                if base is None or base.iteration >= chain[-1].iteration:
+                    raise StoreError(f"run {name!r}: checkpoint at {chain[-1].iteration} "
+                                     f"continues a missing checkpoint "
+                                     f"({chain[-1].base_iteration})")
+                chain.append(base)
+            chain.reverse()
+            levels: dict[int, dict[str, deltas.ItemRow]] = {c.id: {} for c in chain}
             items = session.scalars(
                 select(CheckpointItem)
-                .where(CheckpointItem.checkpoint_id == row.id)
+                .where(CheckpointItem.checkpoint_id.in_(list(levels)))
                 .order_by(CheckpointItem.key)
             )
             for item in items:
-                if item.kind == "json":
-                    texts[item.key] = codecs.decode_json(item.text)
-                else:
-                    arrays[item.key] = codecs.decode_array(item.data or b"", item.kind)
+                levels[item.checkpoint_id][item.key] = deltas.ItemRow(
+                    item.key, item.kind, item.data, item.text, item.prefix)
+            arrays, texts = deltas.resolve([levels[c.id] for c in chain])
             return Checkpoint(
                 row.iteration, row.episode_index, _aware(row.created_at), arrays, texts
             )
@@ -570,6 +603,7 @@ class Store:
                         model.__table__.c.iteration > chosen.iteration,
                     )
                 )
+            self._last.pop(row.id, None)
             row.iterations = chosen.iteration
             row.updated_at = _now()
             session.flush()
@@ -1009,6 +1043,7 @@ def _copy_history(session: Session, source_id: int, new_id: int, chosen: Checkpo
             iteration=old.iteration,
             episode_index=old.episode_index,
             created_at=old.created_at,
+            base_iteration=old.base_iteration,
         )
         session.add(new)
         session.flush()

@@ -10,10 +10,10 @@ from __future__ import annotations
 from collections.abc import Callable
 from dataclasses import dataclass
 
-from sqlalchemy import Connection
+from sqlalchemy import Connection, text
 
 APPLICATION = "hadim"
-SCHEMA_VERSION = 1
+SCHEMA_VERSION = 2
 
 
 @dataclass(frozen=True)
@@ -25,8 +25,16 @@ class Migration:
     apply: Callable[[Connection], None]
 
 
-# Version 1 is the first schema: nothing to migrate from yet.
-MIGRATIONS: list[Migration] = []
+def _delta_checkpoints(conn: Connection) -> None:
+    # Existing checkpoints are full snapshots: NULL in both new columns says exactly that.
+    conn.execute(text("ALTER TABLE checkpoints ADD COLUMN base_iteration INTEGER"))
+    conn.execute(text("ALTER TABLE checkpoint_items ADD COLUMN prefix INTEGER"))
+
+
+MIGRATIONS: list[Migration] = [
+    Migration(1, "delta checkpoints: checkpoints.base_iteration, checkpoint_items.prefix",
+              _delta_checkpoints),
+]
 
 
 def plan(current: int, target: int, migrations: list[Migration]) -> list[Migration]:

@@ -135,6 +135,8 @@ class CheckpointRow(Base):
     iteration: Mapped[int] = mapped_column(Integer)
     episode_index: Mapped[int] = mapped_column(Integer)
     created_at: Mapped[datetime] = mapped_column(DateTime)
+    # NULL: a full snapshot; else the iteration of the run's checkpoint this one continues.
+    base_iteration: Mapped[int | None] = mapped_column(Integer, nullable=True)
 
 
 class CheckpointItem(Base):
@@ -147,6 +149,9 @@ class CheckpointItem(Base):
     kind: Mapped[str] = mapped_column(String(16))  # 'npy', 'npy+zlib' or 'json'
     data: Mapped[bytes | None] = mapped_column(LargeBinary)  # arrays
     text: Mapped[str | None] = mapped_column(Text)  # JSON
+    # NULL: data/text is the whole value; else the value is the first `prefix` rows (list
+    # items) of the base checkpoint's item of the same key, followed by data/text (if any).
+    prefix: Mapped[int | None] = mapped_column(Integer, nullable=True)
 
 
 class EvaluationRow(Base):

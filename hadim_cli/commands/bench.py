@@ -74,11 +74,13 @@ def train(
 
     table = Table(title=f"train: {result.iterations} iterations, seed {seed}, "
                   f"store {'on' if store else 'off'}")
-    for col in ("iterations", "seconds", "iterations/s", "affordances"):
+    for col in ("iterations", "seconds", "iterations/s", "affordances", "store MB", "RSS MB"):
         table.add_column(col, justify="right")
     for b in result.blocks:
         table.add_row(f"{b['start']}–{b['stop']}", f"{b['seconds']:.2f}",
-                      f"{b['iterations_per_s']:.1f}", str(b["affordances"]))
+                      f"{b['iterations_per_s']:.1f}", str(b["affordances"]),
+                      f"{b['store_bytes'] / 1e6:.1f}" if store else "–",
+                      f"{b['rss_bytes'] / 1e6:.0f}")
     console = Console()
     console.print(table)
     extra = (f"; store {result.store_s:.2f} s, {result.store_bytes / 1e6:.1f} MB"

@@ -282,8 +282,7 @@ class Adaptation:
     # ------------------------------------------------------------------ creation and deletion
     def _creation_rows(self, inp: RoleSpace, out: RoleSpace, rng: np.random.Generator) -> Rows:
         f = self.fitter
-        t = np.arange(len(f.dataset), dtype=np.int64)
-        sample = f.candidate_rows(inp, out, t)
+        sample = f.all_candidates(inp, out)  # candidate_rows over all of D, kept up to date
         rows = f.select_rows(sample, rng)
         return self._subsample(rows, rng)
 

@@ -7,6 +7,8 @@ context change a refit over the same rows, and a checkpoint a list of integers.
 
 from __future__ import annotations
 
+import weakref
+from collections.abc import Callable
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -74,13 +76,38 @@ class Sample:
     def take(self, idx: np.ndarray) -> Sample:
         return Sample(self.rows.take(idx), self.x[idx], self.c[idx], self.y[idx])
 
+    def concat(self, other: Sample) -> Sample:
+        return Sample(self.rows.concat(other.rows), np.concatenate([self.x, other.x]),
+                      np.concatenate([self.c, other.c]), np.concatenate([self.y, other.y]))
 
-def typical_step(aff: Affordance, quantile: float = 0.9, zero_eps: float = 1e-9) -> float:
-    """A high quantile of the norms of an affordance's non-null outcomes: one step of it."""
-    _, _, y = aff.model.data()
+
+_BY_MODEL: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()
+"""model → {(what, parameters): (rows, value)}: figures over a model's outcomes, which only
+change when rows are added (a refit makes a new model)."""
+
+
+def per_model(model: Model, key: tuple, compute: Callable[[np.ndarray], float]) -> float:
+    """`compute(outcomes of model)`, computed again only when the model has new rows: the
+    planner asks for a step size many times per learning episode, and each pass is O(rows)."""
+    memo = _BY_MODEL.setdefault(model, {})
+    hit = memo.get(key)
+    if hit is not None and hit[0] == model.n:
+        return hit[1]
+    value = compute(model.data()[2])
+    memo[key] = (model.n, value)
+    return value
+
+
+def _typical_step(y: np.ndarray, quantile: float, zero_eps: float) -> float:
     norms = np.linalg.norm(y, axis=1)
     norms = norms[norms > zero_eps]
     return float(np.quantile(norms, quantile)) if norms.size else 0.05
+
+
+def typical_step(aff: Affordance, quantile: float = 0.9, zero_eps: float = 1e-9) -> float:
+    """A high quantile of the norms of an affordance's non-null outcomes: one step of it."""
+    return per_model(aff.model, ("step", quantile, zero_eps),
+                     lambda y: _typical_step(y, quantile, zero_eps))
 
 
 def output_bounds(space: RoleSpace, reader: SpaceReader) -> tuple[np.ndarray, np.ndarray]:
@@ -98,6 +125,8 @@ class Fitter:
         self.reader = reader
         self.config = config
         self.n_entities = len(reader.layout.entities)
+        # (input, output) → (iterations covered, candidate rows over them): see `all_candidates`.
+        self._candidates: dict[tuple[str, str], tuple[int, Sample]] = {}
 
     # ------------------------------------------------------------------ rows and values
     def bindings(self, roles: frozenset[Role], t: np.ndarray) -> Rows:
@@ -131,6 +160,22 @@ class Fitter:
             # Through a tool means not by the robot's own body: a target the robot touches is
             # the direct pushing affordance's outcome, and would hide the tool's relation.
             sample = sample.take(np.flatnonzero(~self.touching_robot(sample.rows)))
+        return sample
+
+    def all_candidates(self, inp: RoleSpace, out: RoleSpace) -> Sample:
+        """`candidate_rows` over every iteration of D, kept and extended by the iterations
+        added since the last call instead of read again from all of D. Bindings are made
+        iteration by iteration and every test on them is row-wise, so the rows of [0, n) are
+        those of [0, m) followed by those of [m, n): the same sample, bit for bit."""
+        key = (inp.name, out.name)
+        n = len(self.dataset)
+        done, sample = self._candidates.get(key, (0, None))
+        if sample is None or done > n:  # (D never shrinks; a new D means a new Fitter)
+            done, sample = 0, None
+        if done < n or sample is None:
+            new = self.candidate_rows(inp, out, np.arange(done, n, dtype=np.int64))
+            sample = new if sample is None else sample.concat(new)
+            self._candidates[key] = (n, sample)
         return sample
 
     def touching_robot(self, rows: Rows) -> np.ndarray:
@@ -206,7 +251,8 @@ class Fitter:
             return 0.0
         # Errors relative to the width of the output's range: C(e) of the authors expects e of
         # a few percent for a good model (see docs/algorithm.md).
-        scale = range_scale(model.data()[2], self.config.zero_eps)
+        eps = self.config.zero_eps
+        scale = per_model(model, ("range", eps), lambda y: range_scale(y, eps))
         report = model_competence(model, zero_eps=self.config.zero_eps,
                                   sharpness=self.config.competence_sharpness,
                                   max_rows=self.config.competence_rows, rng=rng, scale=scale)

@@ -1,7 +1,12 @@
 """The learner's state as (JSON, named arrays) — no pickle — and back.
 
-D is not part of it: the store holds D episode by episode and restores it first. Models keep
-their own state (data and indexes' parameters), so a restored learner predicts bit-identically.
+D is not part of it: the store holds D episode by episode and restores it first. Nor are the
+models' rows: an affordance's rows of D (`aff<id>.rows.*`) and its spaces give them again
+(`Fitter.values`), bit for bit, so a model is saved as its parameters and index sizes and
+rebuilt from D at restore. Everything that grows with the run is an array or a list that only
+grows at its end (rows, competence history, interest goals in time order, events), which the
+store writes as deltas (store/deltas.py). Format 1 (models with their rows, history in JSON)
+still restores.
 """
 
 from __future__ import annotations
@@ -18,7 +23,9 @@ from hadim_cli.learner.hierarchy import Event, EventKind
 from hadim_cli.learner.interest import InterestMap
 from hadim_cli.learner.spaces import Rows, parse_space
 
-FORMAT = 1
+FORMAT = 2
+READABLE_FORMATS = (1, 2)
+_MODEL_ROWS = ("x", "c", "y")
 
 
 def _prefixed(prefix: str, arrays: dict[str, np.ndarray]) -> dict[str, np.ndarray]:
@@ -43,20 +50,32 @@ def event_from_json(d: dict[str, Any]) -> Event:
                  dict(d.get("detail", {})))
 
 
+def _in_time_order(interest: dict[str, np.ndarray]) -> dict[str, np.ndarray]:
+    """An interest map's goal arrays sorted by iteration (stable): the map stores them leaf by
+    leaf, so a new goal lands mid-array; in time order it lands at the end. Each leaf keeps its
+    own (time) order, which is all `InterestMap.from_state` reads."""
+    order = np.argsort(interest["iterations"], kind="stable")
+    out = dict(interest)
+    for key in ("goals", "competences", "iterations", "goal_region"):
+        out[key] = interest[key][order]
+    return out
+
+
 def affordance_state(aff: Affordance) -> tuple[dict[str, Any], dict[str, np.ndarray]]:
     p = f"aff{aff.id}"
     interest_json, interest_arrays = aff.interest.state()
     meta = {
         "id": aff.id, "input": aff.input.name, "output": aff.output.name,
         "contexts": [c.name for c in aff.contexts], "created_at": aff.created_at,
-        "competence": aff.competence, "history": [[i, c] for i, c in aff.history],
-        "low_streak": aff.low_streak, "interest": interest_json,
+        "competence": aff.competence, "low_streak": aff.low_streak, "interest": interest_json,
         "classifier": aff.classifier is not None,
     }
+    history = np.array(aff.history, dtype=np.float64).reshape(-1, 2)
     arrays = {f"{p}.rows.t": aff.rows.t, f"{p}.rows.target": aff.rows.target,
-              f"{p}.rows.tool": aff.rows.tool}
-    arrays.update(_prefixed(f"{p}.model", aff.model.state()))
-    arrays.update(_prefixed(f"{p}.interest", interest_arrays))
+              f"{p}.rows.tool": aff.rows.tool, f"{p}.history": history}
+    model = {k: v for k, v in aff.model.state().items() if k not in _MODEL_ROWS}
+    arrays.update(_prefixed(f"{p}.model", model))
+    arrays.update(_prefixed(f"{p}.interest", _in_time_order(interest_arrays)))
     if aff.classifier is not None:
         arrays.update(_prefixed(f"{p}.classifier", aff.classifier.state()))
     return meta, arrays
@@ -87,25 +106,35 @@ def _restore_affordance(learner: Learner, meta: dict[str, Any],
     p = f"aff{meta['id']}"
     inp, out = parse_space(meta["input"]), parse_space(meta["output"])
     contexts = tuple(parse_space(c) for c in meta["contexts"])
+    rows = Rows(arrays[f"{p}.rows.t"].astype(np.int64), arrays[f"{p}.rows.target"].astype(
+        np.int64), arrays[f"{p}.rows.tool"].astype(np.int64))
+    if len(rows) and int(rows.t.max()) >= len(learner.dataset):
+        raise ValueError(f"affordance {meta['id']} has rows beyond D")
+    model_state = _strip(f"{p}.model", arrays)
+    if "x" not in model_state:  # format 2: the model's rows are read again from D
+        sample = learner.fitter.values(inp, out, contexts, rows)
+        model_state.update(x=sample.x, c=sample.c, y=sample.y)
     template = learner.fitter.new_model(inp, out, contexts)
-    model = type(template).from_state(_strip(f"{p}.model", arrays), **template.params())
+    model = type(template).from_state(model_state, **template.params())
     interest = InterestMap.from_state(meta["interest"], _strip(f"{p}.interest", arrays))
     classifier = None
     if meta["classifier"]:
         classifier = VisualClassifier.from_state(_strip(f"{p}.classifier", arrays),
                                                  hidden=learner.config.classifier_hidden)
-    rows = Rows(arrays[f"{p}.rows.t"].astype(np.int64), arrays[f"{p}.rows.target"].astype(
-        np.int64), arrays[f"{p}.rows.tool"].astype(np.int64))
+    if "history" in meta:  # format 1
+        history = [(int(i), float(c)) for i, c in meta["history"]]
+    else:
+        history = [(int(i), float(c)) for i, c in arrays[f"{p}.history"]]
     aff = Affordance(int(meta["id"]), inp, out, contexts, int(meta["created_at"]), rows, model,
-                     interest, classifier, float(meta["competence"]),
-                     [(int(i), float(c)) for i, c in meta["history"]], int(meta["low_streak"]))
+                     interest, classifier, float(meta["competence"]), history,
+                     int(meta["low_streak"]))
     return aff
 
 
 def restore_learner(learner: Learner, meta: dict[str, Any],
                     arrays: dict[str, np.ndarray]) -> None:
     """Load H and counters into `learner`, whose D must already hold the checkpoint's data."""
-    if meta.get("format") != FORMAT:
+    if meta.get("format") not in READABLE_FORMATS:
         raise ValueError(f"unsupported learner state format {meta.get('format')!r}")
     if len(learner.dataset) != int(meta["iteration"]):
         raise ValueError(f"D holds {len(learner.dataset)} iterations, the checkpoint "

@@ -1,0 +1,187 @@
+"""Checkpoints as deltas: each item written as what changed since the run's previous checkpoint.
+
+A checkpoint is a set of items, key → array or JSON value. Most of a learner's state grows by
+appending (rows of data, goals, a timeline), so an item whose previous value is a prefix of its
+new one (the first rows of an array, the first elements of a JSON list, byte for byte) is
+written as that prefix's length and the rows after it; an unchanged item is a length and no
+data. Everything else is written whole. A checkpoint written so names the checkpoint it
+continues (`base_iteration`); one that names none is a full snapshot.
+
+Every `snapshot_every`-th checkpoint a `Store` writes for a run is a full snapshot (and so is
+the first after the store is opened, e.g. on resume): the store then grows with what the run
+adds plus one snapshot per `snapshot_every` episodes, and reading a checkpoint reads one
+snapshot and at most `snapshot_every - 1` deltas. (Per episode, the deltas are dominated by
+what changes everywhere at once — p_A's weights and optimiser moments — so a rule "snapshot
+when the deltas outweigh one" would snapshot at nearly every episode.)
+
+This module holds the pure parts: diffing against the previous state, and rebuilding a value
+from its chain. `store.api` owns the transactions.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass
+from datetime import datetime
+from typing import Any
+
+import numpy as np
+
+from store import codecs
+from store.errors import StoreError
+
+DEFAULT_SNAPSHOT_EVERY = 50
+"""One checkpoint in this many is a full snapshot (bounds what a restore reads)."""
+
+
+@dataclass
+class ItemRow:
+    """One checkpoint item as stored: `prefix` None means `data`/`text` is the whole value."""
+
+    key: str
+    kind: str
+    data: bytes | None
+    text: str | None
+    prefix: int | None
+
+    @property
+    def size(self) -> int:
+        return len(self.data or b"") + len(self.text or "")
+
+
+@dataclass
+class LastWritten:
+    """What a `Store` remembers of the last checkpoint it wrote for a run: the base of the
+    next delta. Only valid while that checkpoint is still the run's latest."""
+
+    run_created: datetime
+    checkpoint_id: int
+    iteration: int
+    arrays: dict[str, np.ndarray]
+    elements: dict[str, list[str]]
+    """JSON lists: each element's encoding (prefixes are compared on these, exactly)."""
+    texts: dict[str, str]
+    """Other JSON values: their encoding."""
+    chain: int = 0
+    """Deltas written since the last full snapshot."""
+
+
+@dataclass
+class Encoded:
+    """A checkpoint's items, encoded either whole or as a delta against `LastWritten`."""
+
+    rows: list[ItemRow]
+    memory: LastWritten
+    delta: bool
+
+
+def _array_prefix(new: np.ndarray, old: np.ndarray | None) -> int | None:
+    if (old is None or new.ndim == 0 or old.ndim != new.ndim or old.dtype != new.dtype
+            or old.shape[1:] != new.shape[1:] or old.shape[0] > new.shape[0]):
+        return None
+    head = np.ascontiguousarray(new[:old.shape[0]])
+    return old.shape[0] if head.tobytes() == np.ascontiguousarray(old).tobytes() else None
+
+
+def encode(arrays: Mapping[str, np.ndarray], texts: Mapping[str, Any], *, compress: bool,
+           base: LastWritten | None) -> tuple[list[ItemRow], dict, dict, dict]:
+    """Items of a checkpoint, as deltas against `base` where they can be (whole if None);
+    also the new memory (arrays, list elements, other texts) for the next delta."""
+    kind = codecs.NPY_ZLIB if compress else codecs.NPY
+    rows: list[ItemRow] = []
+    mem_arrays: dict[str, np.ndarray] = {}
+    mem_elements: dict[str, list[str]] = {}
+    mem_texts: dict[str, str] = {}
+    for key, value in arrays.items():
+        value = np.asarray(value)
+        prefix = None if base is None else _array_prefix(value, base.arrays.get(key))
+        if prefix is None:
+            rows.append(ItemRow(key, kind, codecs.encode_array(value, compress=compress), None,
+                                None))
+        else:
+            tail = value[prefix:]
+            data = codecs.encode_array(tail, compress=compress) if tail.shape[0] else None
+            rows.append(ItemRow(key, kind, data, None, prefix))
+        mem_arrays[key] = value.copy()
+    for key, value in texts.items():
+        if isinstance(value, list | tuple):
+            elements = [codecs.encode_json(v) for v in value]
+            old = None if base is None else base.elements.get(key)
+            mem_elements[key] = elements
+            if old is not None and elements[:len(old)] == old:
+                tail = elements[len(old):]
+                text = "[" + ",".join(tail) + "]" if tail else None
+                rows.append(ItemRow(key, "json", None, text, len(old)))
+                continue
+            rows.append(ItemRow(key, "json", None, "[" + ",".join(elements) + "]", None))
+        else:
+            text = codecs.encode_json(value)
+            mem_texts[key] = text
+            rows.append(ItemRow(key, "json", None, text, None))
+    return rows, mem_arrays, mem_elements, mem_texts
+
+
+def checkpoint_items(arrays: Mapping[str, np.ndarray], texts: Mapping[str, Any], *,
+                     compress: bool, base: LastWritten | None, snapshot_every: int,
+                     run_created: datetime, iteration: int) -> Encoded:
+    """Encode a checkpoint against `base`, or whole when there is none or the chain since the
+    last full snapshot is `snapshot_every - 1` deltas long. The caller sets the memory's
+    checkpoint_id once the row exists."""
+    if base is not None and base.chain + 1 < snapshot_every:
+        rows, a, e, t = encode(arrays, texts, compress=compress, base=base)
+        return Encoded(rows, LastWritten(run_created, -1, iteration, a, e, t, base.chain + 1),
+                       True)
+    rows, a, e, t = encode(arrays, texts, compress=compress, base=None)
+    return Encoded(rows, LastWritten(run_created, -1, iteration, a, e, t, 0), False)
+
+
+# ---------------------------------------------------------------------------- reading
+def _tail_value(row: ItemRow) -> Any:
+    if row.kind == "json":
+        return codecs.decode_json(row.text) if row.text is not None else []
+    return codecs.decode_array(row.data, row.kind) if row.data is not None else None
+
+
+def resolve(chain: Sequence[Mapping[str, ItemRow]]) -> tuple[dict[str, np.ndarray],
+                                                              dict[str, Any]]:
+    """The values of the newest checkpoint of `chain` (oldest first, a full snapshot first):
+    each key of the newest, its prefix taken from older ones as far as needed."""
+    arrays: dict[str, np.ndarray] = {}
+    texts: dict[str, Any] = {}
+    for key, newest in chain[-1].items():
+        value = _resolve_key(chain, key)
+        if newest.kind == "json":
+            texts[key] = value
+        else:
+            arrays[key] = value
+    return arrays, texts
+
+
+def _resolve_key(chain: Sequence[Mapping[str, ItemRow]], key: str) -> Any:
+    parts: list[Any] = []
+    limit: int | None = None  # rows still wanted from the level below
+    for level in range(len(chain) - 1, -1, -1):
+        row = chain[level].get(key)
+        if row is None:
+            raise StoreError(f"corrupt checkpoint chain: item {key!r} has no base")
+        start = 0 if row.prefix is None else row.prefix
+        want = None if limit is None else max(0, limit - start)
+        if want != 0 or row.prefix is None:  # a full value is read even if empty (its dtype)
+            tail = _tail_value(row)
+            if tail is not None:
+                parts.append(tail if want is None else tail[:want])
+        if row.prefix is None:
+            break
+        limit = row.prefix if limit is None else min(limit, row.prefix)
+    else:
+        raise StoreError(f"corrupt checkpoint chain: item {key!r} has no full value")
+    parts.reverse()
+    if chain[-1][key].kind == "json":
+        if len(parts) == 1 and not isinstance(parts[0], list):
+            return parts[0]
+        return [v for p in parts for v in p]
+    if len(parts) == 1:
+        return parts[0]
+    out = np.concatenate(parts)
+    out.flags.writeable = False
+    return out
