@@ -114,7 +114,9 @@ def require_intact(path: Path) -> None:
     """Refuse to write into a damaged store: writing would spread the damage."""
     problems = quick_check(path)
     if problems:
-        raise DamagedStore(f"{path} is damaged ({problems[0]}{' …' if len(problems) > 1 else ''}); "
+        # SQLite's report may span lines ("*** in database main ***\nOn tree page …"): one line.
+        first = " ".join(problems[0].split())
+        raise DamagedStore(f"{path} is damaged ({first}{' …' if len(problems) > 1 else ''}); "
                            f"nothing was written: run `hadim store check --store {path}` and see "
                            f"docs/store.md, 'A damaged store'")
 

@@ -103,6 +103,8 @@ def rich_learner() -> Room:
     pusher = room.affordance(t[:20], (TARGET_ROBOT,), inp=ROBOT_POSITION, out=TARGET_POSITION,
                              rng=rng)
     pusher.rows = Rows(t[:20], np.full(20, 1), np.full(20, -1))
+    # A model holds the values of its affordance's rows (checkpoints rebuild it from them).
+    pusher.model = room.fitter.fit(pusher.input, pusher.output, pusher.contexts, pusher.rows)
     pusher.classifier.add(rng.uniform(0, 1, (6, pusher.classifier.n_features)),
                           np.array([1, 0, 1, 0, 1, 0], dtype=bool))
     pusher.classifier.train(rng, steps=5)
