@@ -13,6 +13,7 @@ numbers: evaluation can use it without touching the learner's generators.
 
 from __future__ import annotations
 
+from collections.abc import Iterator
 from dataclasses import dataclass
 from typing import Protocol
 
@@ -225,18 +226,8 @@ class Planner:
         drive there (its learned motion, `Navigator.estimate`), and for a relation held by
         another object (the tool), that object's move at its driver's step plus the robot's
         drive to behind it."""
-        total, offset = 0.0, 0
-        for space in aff.contexts:
-            dim = self.value(space, obs, b).shape[0]
-            want = needed[offset:offset + dim]
-            offset += dim
-            plan = self._context_goal(space, want, obs, b)
-            if plan is None:
-                continue
-            driven, goal, sub_b = plan
-            drivers = self._drivers(aff, driven, sub_b, b)
-            if not drivers:
-                continue
+        total = 0.0
+        for _, _, driven, goal, sub_b, drivers in self._context_plans(aff, b, needed, obs):
             if driven == ROBOT_POSITION:
                 total += self.navigator.estimate(obs, Place(goal), b.target, b.tool)
                 continue
@@ -524,19 +515,9 @@ class Planner:
         change `aff` will ask for from there (with navigation, the robot arrives facing the
         way that change moves it)."""
         used = 0
-        offset = 0
         spreads = self._spreads(aff)
-        for i, space in enumerate(aff.contexts):
-            dim = self.value(space, actuator.obs, b).shape[0]
-            want = needed[offset:offset + dim]
-            offset += dim
-            plan = self._context_goal(space, want, actuator.obs, b)
-            if plan is None:
-                continue
-            driven, goal, sub_b = plan
-            controllers = self._drivers(aff, driven, sub_b, b)
-            if not controllers:
-                continue
+        for i, space, driven, goal, sub_b, controllers in self._context_plans(
+                aff, b, needed, actuator.obs):
             current = self.value(driven, actuator.obs, sub_b)
             if np.linalg.norm(goal - current) < 0.25 * self.step_size(aff) + 0.02:
                 continue
@@ -567,6 +548,25 @@ class Planner:
                 if used >= budget or actuator.exhausted:
                     return used
         return used
+
+    def _context_plans(self, aff: Affordance, b: Binding, needed: np.ndarray, obs: np.ndarray
+                       ) -> Iterator[tuple[int, RoleSpace, RoleSpace, np.ndarray, Binding,
+                                           list[Affordance]]]:
+        """For each context space of `aff` that can be driven to its part of `needed`: (its
+        index, the space, the space to drive, the value to drive it to, under which binding,
+        the affordances that can)."""
+        offset = 0
+        for i, space in enumerate(aff.contexts):
+            dim = self.value(space, obs, b).shape[0]
+            want = needed[offset:offset + dim]
+            offset += dim
+            plan = self._context_goal(space, want, obs, b)
+            if plan is None:
+                continue
+            driven, goal, sub_b = plan
+            drivers = self._drivers(aff, driven, sub_b, b)
+            if drivers:
+                yield i, space, driven, goal, sub_b, drivers
 
     def _context_goal(self, space: RoleSpace, want: np.ndarray, obs: np.ndarray,
                       b: Binding) -> tuple[RoleSpace, np.ndarray, Binding] | None:
