@@ -261,7 +261,7 @@ class LearnerConfig:
 class PlannerConfig:
     """How goals become primitive actions through the chain of learned affordances (paper
     §4.3, docs/algorithm.md "Planner"). Stored with each run; a run stored before this section
-    existed is planned with these defaults (the installed planner)."""
+    existed keeps the planner it trained with (`LEGACY_DEFAULTS`: no navigation)."""
 
     max_depth: int = 4
     """Deepest chain of affordances one goal is decomposed through."""
@@ -296,7 +296,7 @@ class PlannerConfig:
     """Gap (m) the robot keeps from an entity it must not touch (the target while a tool
     moves it): the contact margin (0.02 m) plus about the held-out error of the robot's
     motion model over one action."""
-    navigation: bool = False
+    navigation: bool = True
     """Reach the robot's places by a search over its learned motion (forward models of
     action → robot.position and action → robot.heading), arriving facing the way the next
     step moves; off: through the inverse model of action → robot.position, turning first."""
@@ -480,6 +480,7 @@ def config_from_dict(values: Mapping[str, Any]) -> Config:
 
 LEGACY_DEFAULTS: dict[str, dict[str, Any]] = {
     "learner": {"surface_relations": False, "relation_frames": False},
+    "planner": {"navigation": False},
 }
 """Keys added after runs were first stored, with the value that reproduces what a run stored
 without them did (its defaults then): a stored run restores the learner it trained (the
