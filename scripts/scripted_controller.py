@@ -28,7 +28,7 @@ from hadim_cli.evaluation.runner import EvalActuator
 from hadim_cli.evaluation.tasks import Task, load_task, load_task_file
 from hadim_cli.learner.hierarchy import Hierarchy
 from hadim_cli.learner.navigation import Keepout, Navigator, Place
-from hadim_cli.learner.spaces import Property, Role, RoleSpace, SpaceReader
+from hadim_cli.learner.spaces import SpaceReader
 from hadim_cli.world.world import World
 
 CONTACT = 0.01
@@ -54,8 +54,7 @@ class Scripted:
         self.task = task
         self.reader = SpaceReader(world.layout)
         config = PlannerConfig()
-        motion = KinematicMotion(world.config, RoleSpace(Role.ROBOT, Property.HEADING),
-                                 self.reader)
+        motion = KinematicMotion(world.config, self.reader)
         self.nav = Navigator(Hierarchy(), self.reader, config, motion)
 
     def pos(self, obs: np.ndarray, e: int) -> np.ndarray:

@@ -17,8 +17,8 @@ import numpy as np
 from hadim_cli.config import WorldConfig
 from hadim_cli.errors import HadimError
 from hadim_cli.learner.explorer import Learner
-from hadim_cli.learner.navigation import Navigator
-from hadim_cli.learner.spaces import Property, Role, RoleSpace
+from hadim_cli.learner.navigation import ROBOT_HEADING, Navigator
+from hadim_cli.learner.spaces import SpaceReader
 
 LEVELS = ("navigation",)
 """Levels of the chain that can be replaced by an exact one."""
@@ -27,14 +27,13 @@ LEVELS = ("navigation",)
 class KinematicMotion:
     """The free differential drive: each command held for the action's duration, no load."""
 
-    def __init__(self, world: WorldConfig, heading: RoleSpace, reader):
+    def __init__(self, world: WorldConfig, reader: SpaceReader):
         self.world = world
-        self.heading = heading
         self.reader = reader
 
     def __call__(self, obs: np.ndarray, commands: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         w = self.world
-        h = self.reader.value_now(self.heading, obs)
+        h = self.reader.value_now(ROBOT_HEADING, obs)
         theta = float(np.arctan2(h[1], h[0]))
         v = (commands[:, 0] + commands[:, 1]) / 2 * w.max_wheel_speed
         omega = (commands[:, 1] - commands[:, 0]) * w.max_wheel_speed / w.wheel_base
@@ -63,8 +62,7 @@ def exact_levels(learner: Learner, world: WorldConfig, levels: tuple[str, ...]
     try:
         if "navigation" in levels:
             planner.pc = dataclasses.replace(planner.pc, navigation=True)
-            motion = KinematicMotion(world, RoleSpace(Role.ROBOT, Property.HEADING),
-                                     learner.reader)
+            motion = KinematicMotion(world, learner.reader)
             planner.navigator = Navigator(planner.h, learner.reader, planner.pc, motion)
         yield
     finally:

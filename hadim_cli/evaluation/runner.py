@@ -16,6 +16,7 @@ from hadim_cli.evaluation.metric import heading_error, point_error, task_score
 from hadim_cli.evaluation.tasks import Task, check_task
 from hadim_cli.learner.affordance import Affordance
 from hadim_cli.learner.explorer import Learner
+from hadim_cli.learner.navigation import ROBOT_HEADING
 from hadim_cli.learner.planner import Binding, Planner
 from hadim_cli.learner.spaces import Property, Role, RoleSpace
 from hadim_cli.world.world import World
@@ -91,12 +92,14 @@ class EvalActuator:
         self.observations = [obs.copy()]
         self.steps: list[Step] = []
         self.path = 0.0
-        self.line: tuple[int, np.ndarray, np.ndarray] | None = None
+        self.line: tuple[slice, np.ndarray, np.ndarray] | None = None
         self.deviation = 0.0
 
     def follow(self, entity: int, start: np.ndarray, point: np.ndarray) -> None:
         """Measure `entity`'s largest distance from the segment start → point."""
-        self.line = (entity, np.asarray(start, float), np.asarray(point, float))
+        name = self.world.layout.entities[entity]
+        self.line = (self.world.layout.space(name, Property.POSITION).slice,
+                     np.asarray(start, float), np.asarray(point, float))
 
     @property
     def obs(self) -> np.ndarray:
@@ -112,9 +115,8 @@ class EvalActuator:
         self.used += 1
         self.path += float(np.linalg.norm(np.asarray(self.world.robot_pose()[:2]) - before))
         if self.line is not None:
-            entity, a, b = self.line
-            pos = self._obs[self.world.layout.space(self.world.layout.entities[entity],
-                                                    Property.POSITION).slice]
+            where, a, b = self.line
+            pos = self._obs[where]
             self.deviation = max(self.deviation, segment_distance(pos, a, b))
         if self.planner is not None:
             stack = self.planner.stack
@@ -132,8 +134,7 @@ def _heading(world: World) -> float:
 
 def _turn_to(learner: Learner, heading: float, actuator: EvalActuator, budget: int) -> None:
     """Face `heading` (rad) through the most competent `action → robot.heading`."""
-    space = RoleSpace(Role.ROBOT, Property.HEADING)
-    turners = [a for a in learner.hierarchy.with_output(space) if a.input.name == "action"]
+    turners = [a for a in learner.hierarchy.with_output(ROBOT_HEADING) if a.input.name == "action"]
     if turners and budget > 0:
         turner = max(turners, key=lambda a: a.competence)
         goal = np.array([np.cos(heading), np.sin(heading)])

@@ -24,10 +24,14 @@ from hadim_cli.learner.affordance import CONTACT_MARGIN, Affordance, typical_ste
 from hadim_cli.learner.competence import split_zero
 from hadim_cli.learner.frames import seen
 from hadim_cli.learner.hierarchy import Hierarchy
-from hadim_cli.learner.navigation import Keepout, Navigator, Place
+from hadim_cli.learner.navigation import (
+    ROBOT_HEADING,
+    ROBOT_POSITION,
+    Keepout,
+    Navigator,
+    Place,
+)
 from hadim_cli.learner.spaces import ACTION, Property, Role, RoleSpace, SpaceReader
-
-ROBOT_POSITION = RoleSpace(Role.ROBOT, Property.POSITION)
 
 
 class Actuator(Protocol):
@@ -474,7 +478,7 @@ class Planner:
         in one action (`nearest_pose` of the motion affordance), None if that affordance has
         no heading context."""
         mover = self.navigator.movers()[0]
-        heading = RoleSpace(Role.ROBOT, Property.HEADING)
+        heading = ROBOT_HEADING
         if mover is None or heading not in mover.contexts or np.linalg.norm(move) < 1e-9:
             return None
         c = self.context(mover, obs, b)

@@ -37,7 +37,7 @@ class Kinematic:
         self.obs = self.world.reset(seed=0)
         self.layout = self.world.layout
         self.reader = SpaceReader(self.layout)
-        self.motion = KinematicMotion(WORLD, ROBOT_HEADING, self.reader)
+        self.motion = KinematicMotion(WORLD, self.reader)
         self.set(np.array([x, y]), np.array([np.cos(theta), np.sin(theta)]))
         # Objects far away, out of the way.
         for i, entity in enumerate(self.layout.objects):
