@@ -154,7 +154,8 @@ class Planner:
                 break
             delta = gap if dist <= step else gap * (step / dist)
             done = self._one_step(aff, b, delta, actuator, budget - used, depth,
-                                  remaining=dist / max(step, 1e-9))
+                                  remaining=dist / max(step, 1e-9),
+                                  spare_trips=depth > 0 or (dist < start and b.avoid >= 0))
             used += max(done, 0)
             if done <= 0:
                 stalls += 1
@@ -165,10 +166,14 @@ class Planner:
         return used
 
     def _one_step(self, aff: Affordance, b: Binding, delta: np.ndarray, actuator: Actuator,
-                  budget: int, depth: int, remaining: float = 1.0) -> int:
+                  budget: int, depth: int, remaining: float = 1.0,
+                  spare_trips: bool = True) -> int:
         """Execute one planned step; returns actions used (-1: nothing can be done).
         `remaining`: steps of `aff` still to go to its goal (weighs a trip to a better place
-        against pushing on from here)."""
+        against pushing on from here). `spare_trips`: a small remainder is not worth a trip round
+        the object — a sub-goal's (its parent replans), or that of a goal already approached
+        while an entity must not be touched (the trip risks the whole goal for a few per cent
+        of it)."""
         if aff.model.n < 2:
             return -1
         obs = actuator.obs
@@ -188,14 +193,14 @@ class Planner:
             off = self._gap(aff, spreads, c, needed, relations)
             if off > self.pc.place_support and self._worth_replacing(
                     aff, b, needed, delta, obs, progress if supported else 0.0, off, remaining):
-                if depth > 0 and (np.linalg.norm(delta)
-                                  < self.pc.small_correction * self.step_size(aff)):
-                    # A small remainder of a sub-goal is not worth a trip round the object
-                    # (the robot circled a tool for 3 cm): the parent replans from here.
+                if spare_trips and (np.linalg.norm(delta)
+                                    < self.pc.small_correction * self.step_size(aff)):
+                    # The robot circled a tool for 3 cm; a target pushed 3 cm past its goal
+                    # was chased round the tool for 50 actions, and touched.
                     return -1
                 then = aff.model.infer(delta, needed).x
                 used = self._reach_context(aff, b, needed, actuator, budget, depth, then=then)
-                if used > 0:
+                if used != 0:
                     return used
         elif progress < 0.3 and aff.contexts and depth < self.pc.max_depth:
             # A pose context (e.g. the heading for a move): reach that of the best answer.
@@ -525,32 +530,56 @@ class Planner:
             current = self.value(driven, actuator.obs, sub_b)
             if np.linalg.norm(goal - current) < 0.25 * self.step_size(aff) + 0.02:
                 continue
-            sub = controllers[0]
-            target_entity = sub_b.target if driven.role is not Role.ROBOT else -1
-            waypoints = self._waypoints(driven, goal, actuator.obs, b, target_entity)
-            if driven == ROBOT_POSITION and self._navigating() and space.relative_to is not None:
-                heading = (self.heading_for(then, actuator.obs, b)
-                           if then is not None and aff.input == ROBOT_POSITION else None)
-                near = b.tool if space.role is Role.TOOL else b.target
-                tolerance = max(self.pc.place_support * spreads[i], 0.005)
-                places = [Place(w, None, 2 * tolerance) for w in waypoints[:-1]]
-                places.append(Place(goal, heading, tolerance))
-                done = self.navigate(places, b, actuator, min(budget - used,
-                                                              self.config.goal_budget), near)
-                if done > 0:
-                    used += done
-                    self.trips += 1
-                    if used >= budget or actuator.exhausted:
-                        return used
-                    continue
-                # The learned motion sees no way from here: the inverse model's way below.
-            self.trips += 1
-            for waypoint in waypoints:
-                attempt = self.reach(sub, sub_b, waypoint, actuator,
-                                     min(budget - used, self.config.goal_budget), depth + 1)
-                used += attempt.actions
-                if used >= budget or actuator.exhausted:
-                    return used
+            self.stack.append(Pursuit(f"place {space.name} for A{aff.id}", goal, b))
+            try:
+                done = self._place(aff, b, i, driven, goal, sub_b, controllers[0], spreads,
+                                   actuator, budget - used, depth, then)
+            finally:
+                self.stack.pop()
+            if done < 0:
+                return used if used > 0 else -1
+            used += done
+            if used >= budget or actuator.exhausted:
+                return used
+        return used
+
+    def _place(self, aff: Affordance, b: Binding, i: int, driven: RoleSpace, goal: np.ndarray,
+               sub_b: Binding, sub: Affordance, spreads: list[float],
+               actuator: Actuator, budget: int, depth: int, then: np.ndarray | None) -> int:
+        """Drive `driven` (under `sub_b`) to `goal` so that `aff`'s context space `i` reads
+        what it needs; returns actions used, -1 when the place is one the robot cannot take:
+        where it would touch the entity it must avoid (a place behind a tool that lies in
+        the target: going for it touched the target)."""
+        used = 0
+        if driven == ROBOT_POSITION and b.avoid >= 0:
+            obs = actuator.obs
+            clear = (self.reader.entity_radius(obs, 0) + self.reader.entity_radius(obs, b.avoid)
+                     + self.pc.avoid_margin)
+            if np.linalg.norm(goal - self.reader.entity_position(obs, b.avoid)) < clear:
+                return -1
+        target_entity = sub_b.target if driven.role is not Role.ROBOT else -1
+        waypoints = self._waypoints(driven, goal, actuator.obs, b, target_entity)
+        space = aff.contexts[i]
+        if driven == ROBOT_POSITION and self._navigating() and space.relative_to is not None:
+            heading = (self.heading_for(then, actuator.obs, b)
+                       if then is not None and aff.input == ROBOT_POSITION else None)
+            near = b.tool if space.role is Role.TOOL else b.target
+            tolerance = max(self.pc.place_support * spreads[i], 0.005)
+            places = [Place(w, None, 2 * tolerance) for w in waypoints[:-1]]
+            places.append(Place(goal, heading, tolerance))
+            done = self.navigate(places, b, actuator, min(budget, self.config.goal_budget),
+                                 near)
+            if done > 0:
+                self.trips += 1
+                return done
+            # The learned motion sees no way from here: the inverse model's way below.
+        self.trips += 1
+        for waypoint in waypoints:
+            attempt = self.reach(sub, sub_b, waypoint, actuator,
+                                 min(budget - used, self.config.goal_budget), depth + 1)
+            used += attempt.actions
+            if used >= budget or actuator.exhausted:
+                break
         return used
 
     def _context_plans(self, aff: Affordance, b: Binding, needed: np.ndarray, obs: np.ndarray

@@ -248,3 +248,120 @@ def test_a_trip_is_taken_only_when_it_costs_less_than_pushing_on():
     planner.pc = replace(planner.pc, replace_by_cost=False)
     # The fixed rule: progress < 0.3, or drifted more than `realign` spreads.
     assert worth(0.2, 2.0) and not worth(0.8, 10.0) and worth(0.8, 10.0, off=0.5)
+
+
+def _avoid_scene():
+    """A robot (radius 0.15) at the origin that moves 0.15 m per unit of action, a target
+    (obj1, radius 0.12) at (0.6, 0) it must not touch, and a planner over that motion."""
+    from hadim_cli.learner.spaces import ACTION, SpaceReader
+    from hadim_cli.world.layout import LayoutBounds, ObservationLayout, Property
+
+    layout = ObservationLayout.build(2, 4, LayoutBounds(2, 2, 1.5, 0.25, 0.6))
+    obs = np.zeros(layout.size)
+    obs[layout.space("robot", Property.RADIUS).slice] = 0.15
+    obs[layout.space("robot", Property.HEADING).slice] = [1.0, 0.0]
+    obs[layout.space("obj1", Property.RADIUS).slice] = 0.12
+    obs[layout.space("obj1", Property.POSITION).slice] = [0.6, 0.0]
+    obs[layout.space("obj2", Property.RADIUS).slice] = 0.1
+    obs[layout.space("obj2", Property.POSITION).slice] = [0.3, 0.5]
+    actions = np.random.default_rng(1).uniform(-1, 1, (200, 2))
+    model = LocalLinearModel(2, 2)
+    model.add(actions, None, 0.15 * actions)
+    mover = SimpleNamespace(id=0, input=ACTION, output=ROBOT_POSITION, contexts=(),
+                            model=model, has_tool=False, competence=1.0)
+    hierarchy = SimpleNamespace(
+        controllers=lambda space: [mover] if space == ROBOT_POSITION else [],
+        with_output=lambda space: [mover] if space == ROBOT_POSITION else [])
+    return Planner(hierarchy, SpaceReader(layout), load_config().learner), obs, layout
+
+
+class _World:
+    """An actuator that moves the robot as the motion model says (exactly)."""
+
+    def __init__(self, obs, layout):
+        self._obs = obs.copy()
+        self.position = layout.space("robot", Property.POSITION).slice
+        self.acted = 0
+
+    @property
+    def obs(self):
+        return self._obs
+
+    @property
+    def exhausted(self):
+        return self.acted >= 100
+
+    def act(self, action):
+        self._obs[self.position] += 0.15 * np.asarray(action)
+        self.acted += 1
+        return self._obs
+
+
+def test_a_robot_place_where_it_would_touch_what_it_must_avoid_is_refused():
+    """Pushing a tool that lies against the target can ask for a robot place inside the
+    target: going for it touched the target (a failed tool point). The planner refuses such
+    a place before moving; a place clear of the target is driven to."""
+    from hadim_cli.learner.planner import Binding
+
+    planner, obs, layout = _avoid_scene()
+    pushing_tool = SimpleNamespace(id=3, input=ROBOT_POSITION, contexts=(TARGET_ROBOT,))
+    b = Binding(target=2, avoid=1)
+
+    def place(goal):
+        world = _World(obs, layout)
+        done = planner._place(pushing_tool, b, 0, ROBOT_POSITION, np.array(goal), b,
+                              planner.h.controllers(ROBOT_POSITION)[0], [0.2], world, 40, 1,
+                              None)
+        return done, world
+
+    # 0.6 - 0.15 - 0.12 - 0.05 = 0.28: any place closer to the target's centre touches it.
+    done, world = place([0.45, 0.05])
+    assert done == -1 and world.acted == 0
+    done, world = place([0.2, 0.3])
+    assert done > 0 and world.acted == done
+    assert np.linalg.norm(world.obs[world.position] - [0.2, 0.3]) < 0.05
+
+
+def test_a_small_remainder_of_an_approached_goal_is_not_worth_a_trip():
+    """A target pushed 3 cm past its goal was chased round the tool for 50 actions (and
+    touched). A remainder shorter than `small_correction` steps that needs a trip ends the
+    attempt: a sub-goal's, or, once the output has moved towards the goal, a goal's whose
+    binding has an entity to avoid. The first step of a goal still takes the trip, and so does
+    the remainder of a plain push (a trip there risks nothing)."""
+    from hadim_cli.learner.planner import Binding
+
+    planner = _planner()
+    aff = SimpleNamespace(id=6, model=SimpleNamespace(n=100, context_dims=[2]),
+                          contexts=(TARGET_ROBOT,), input=ROBOT_POSITION, output=TARGET_POSITION)
+    answer = SimpleNamespace(x=np.array([0.03, 0.0]), y_predicted=np.zeros(2))
+    aff.model.infer = lambda delta, c=None: answer
+    planner.context = lambda *args: np.array([0.3, 0.0])
+    planner.reachable_relations = lambda a: np.array([True])
+    planner._spreads = lambda a: [0.1]
+    planner.support_gap = lambda *args: 1.0
+    planner.needed_context = lambda *args: np.array([-0.3, 0.0])
+    planner.step_size = lambda a: 0.1
+    trips = []
+    planner._reach_context = lambda *args, **kw: trips.append(1) or 7
+    actuator = SimpleNamespace(obs=np.zeros(4))
+    small = np.array([-0.03, 0.0])
+    assert planner._one_step(aff, None, small, actuator, 80, 0, spare_trips=True) == -1
+    assert not trips
+    assert planner._one_step(aff, None, small, actuator, 80, 0, spare_trips=False) == 7
+    assert trips == [1]
+    # The loop says which: moved towards the goal, or not yet.
+    seen = []
+    planner.value = lambda *args: np.array([0.17 if seen else 0.0, 0.0])  # moved by a step
+
+    def flags(b: Binding, depth: int = 0) -> list[bool]:
+        seen.clear()
+        planner.reach(aff, b, np.array([0.2, 0.0]),
+                      SimpleNamespace(obs=None, exhausted=False), 10, depth)
+        return list(seen)
+
+    # One step that moves the output, then nothing more can be done.
+    planner._one_step = lambda *a, **kw: seen.append(kw["spare_trips"]) or (
+        1 if len(seen) == 1 else -1)
+    assert flags(Binding(target=2, tool=1, avoid=2)) == [False, True]
+    assert flags(Binding(target=1)) == [False, False]
+    assert flags(Binding(target=1), depth=1) == [True]  # then within its tolerance
