@@ -307,6 +307,13 @@ class PlannerConfig:
     counts (the robot drives backwards as well as forwards)."""
     approach_distance: float = 0.08
     """The last stretch (m) before a place is driven straight along the wanted heading."""
+    steer: bool = True
+    """Roughly aligned (the context relation within `realign` spreads of the needed one, but
+    off by more than `place_support`), a level pushes on and steers: its input entity moves by
+    the step asked from the needed relation plus the way back to that relation (a tool that
+    slid along the target's side is pushed on and back behind it), instead of a trip to the
+    needed place. Off: the fixed rule (`realign`) decides between pushing on as is and a
+    trip."""
     replace_by_cost: bool = False
     """Re-place only when the trip (its estimated actions) plus pushing from the new place
     costs less than pushing on from here at the rate the forward model predicts; off: the
@@ -480,7 +487,7 @@ def config_from_dict(values: Mapping[str, Any]) -> Config:
 
 LEGACY_DEFAULTS: dict[str, dict[str, Any]] = {
     "learner": {"surface_relations": False, "relation_frames": False},
-    "planner": {"navigation": False},
+    "planner": {"navigation": False, "steer": False},
 }
 """Keys added after runs were first stored, with the value that reproduces what a run stored
 without them did (its defaults then): a stored run restores the learner it trained (the

@@ -199,6 +199,11 @@ class Planner:
                     # was chased round the tool for 50 actions, and touched.
                     return -1
                 then = aff.model.infer(delta, needed).x
+                if self.pc.steer and off <= self.pc.realign:
+                    steer = self._steering(aff, b, needed, obs)
+                    if steer is not None:
+                        return self.execute(aff.input, then + steer, b, actuator, budget, depth,
+                                            exclude=aff.id)
                 used = self._reach_context(aff, b, needed, actuator, budget, depth, then=then)
                 if used != 0:
                     return used
@@ -211,6 +216,24 @@ class Planner:
         if progress <= 0.0:
             return -1
         return self.execute(aff.input, here.x, b, actuator, budget, depth, exclude=aff.id)
+
+    def _steering(self, aff: Affordance, b: Binding, needed: np.ndarray, obs: np.ndarray
+                  ) -> np.ndarray | None:
+        """The move of `aff`'s input entity that would bring its context relation back to
+        `needed` (None when the relation is not held by that entity)."""
+        mover = self._entity(aff.input, b)
+        if mover < 0:
+            return None
+        for _, _, driven, goal, sub_b, _ in self._context_plans(aff, b, needed, obs):
+            if driven.prop is Property.POSITION and self._entity(driven, sub_b) == mover:
+                return goal - self.reader.entity_position(obs, mover)
+        return None
+
+    @staticmethod
+    def _entity(space: RoleSpace, b: Binding) -> int:
+        if space.prop is not Property.POSITION or space.relative_to is not None:
+            return -1
+        return {Role.ROBOT: 0, Role.TARGET: b.target, Role.TOOL: b.tool}[space.role]
 
     def _worth_replacing(self, aff: Affordance, b: Binding, needed: np.ndarray,
                          delta: np.ndarray, obs: np.ndarray, rate: float, off: float,

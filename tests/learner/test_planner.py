@@ -365,3 +365,54 @@ def test_a_small_remainder_of_an_approached_goal_is_not_worth_a_trip():
     assert flags(Binding(target=2, tool=1, avoid=2)) == [False, True]
     assert flags(Binding(target=1)) == [False, False]
     assert flags(Binding(target=1), depth=1) == [True]  # then within its tolerance
+
+
+def test_a_roughly_aligned_level_pushes_on_and_steers_back_to_the_needed_relation():
+    """A tool that slid along the target's side is pushed on and back behind it in one move
+    (`planner.steer`): the step asked from the needed relation plus the way back to it.
+    Further off than `realign` spreads, the level takes a trip to the needed place."""
+    from dataclasses import replace
+
+    from hadim_cli.learner.planner import Binding
+
+    planner, obs, layout = _avoid_scene()  # obj2 (the tool here) at (0.3, 0.5)
+    tool_position = RoleSpace(Role.TOOL, Property.POSITION)
+    target_tool = RoleSpace(Role.TARGET, Property.POSITION, Role.TOOL)
+    aff = SimpleNamespace(id=6, model=SimpleNamespace(n=100, context_dims=[2]),
+                          contexts=(target_tool,), input=tool_position, output=TARGET_POSITION)
+    b = Binding(target=1, tool=2, avoid=1)
+    # The needed relation puts the tool 0.22 m behind the target at (0.6, 0): at (0.38, 0).
+    needed_tool = np.array([0.38, 0.0])
+    planner._context_plans = lambda *args: iter(
+        [(0, target_tool, TARGET_POSITION, needed_tool, Binding(target=2, avoid=1), [aff])])
+    steer = planner._steering(aff, b, np.zeros(2), obs)
+    assert np.allclose(steer, needed_tool - [0.3, 0.5])
+    # A relation held by another entity than the one the input moves: nothing to steer.
+    robot_moves = SimpleNamespace(**{**vars(aff), "input": ROBOT_POSITION})
+    assert planner._steering(robot_moves, b, np.zeros(2), obs) is None
+
+    step = np.array([0.1, 0.0])
+    aff.model.infer = lambda delta, c=None: SimpleNamespace(x=step, y_predicted=np.zeros(2))
+    planner.context = lambda *args: np.zeros(2)
+    planner.reachable_relations = lambda a: np.array([True])
+    planner._spreads = lambda a: [0.1]
+    planner.support_gap = lambda *args: 1.0
+    planner.needed_context = lambda *args: np.zeros(2)
+    planner.step_size = lambda a: 0.1
+    calls = []
+    planner.execute = lambda space, x, *args, **kw: calls.append(("push", x)) or 1
+    planner._reach_context = lambda *args, **kw: calls.append(("trip", None)) or 5
+    actuator = SimpleNamespace(obs=obs)
+    for off, expected in ((0.3, "push"), (0.6, "trip")):
+        calls.clear()
+        planner._gap = lambda *args, off=off: off  # spreads from the needed relation
+        planner._one_step(aff, b, np.array([0.1, 0.0]), actuator, 80, 0)
+        assert calls[0][0] == expected
+    calls.clear()
+    planner._gap = lambda *args: 0.3
+    planner._one_step(aff, b, np.array([0.1, 0.0]), actuator, 80, 0)
+    assert np.allclose(calls[0][1], step + steer)
+    planner.pc = replace(planner.pc, steer=False)
+    calls.clear()
+    planner._one_step(aff, b, np.array([0.1, 0.0]), actuator, 80, 0)
+    assert calls[0][0] == "trip"
