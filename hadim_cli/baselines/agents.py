@@ -71,6 +71,9 @@ class BaselineConfig:
     eval_every: int = 1000
     episode_length: int = 1000
     """Actions before an episode is truncated (the paper's 1000)."""
+    n_envs: int = 1
+    """Environments stepped together (SB3's vectorised environment); iterations count the
+    steps of every environment."""
     params: dict[str, Any] = field(default_factory=dict)
     world: dict[str, Any] = field(default_factory=dict)
 
@@ -82,19 +85,26 @@ class BaselineConfig:
         return WorldConfig(**self.world) if self.world else WorldConfig()
 
 
+def refusal(algo: Algorithm, reward: Reward, actions: Actions) -> str | None:
+    """Why this combination is not one of the comparison's (None when it is)."""
+    if algo is not Algorithm.A2C and actions is not Actions.DISCRETE:
+        return f"{algo.value} needs --actions discrete (only a2c takes continuous)"
+    if algo is Algorithm.CURIOUS and reward is not Reward.SPARSE:
+        return "curious learns on the sparse reward, as in the paper: --reward sparse"
+    return None
+
+
 def make_config(algorithm: str, task: str, reward: str, actions: str, horizon: int,
                 eval_every: int, world: WorldConfig, episode_length: int = 1000,
                 ) -> BaselineConfig:
     """A checked config with the algorithm's parameters resolved; `HadimError` if impossible."""
     algo = choice(Algorithm, algorithm, "algorithm")
-    choice(Reward, reward, "reward")
     acts = choice(Actions, actions, "actions")
     if task not in TASKS:
         raise HadimError(f"unknown task '{task}' (known: {', '.join(TASKS)})")
-    if algo is not Algorithm.A2C and acts is not Actions.DISCRETE:
-        raise HadimError(f"{algo.value} needs --actions discrete (only a2c takes continuous)")
-    if algo is Algorithm.CURIOUS and reward != Reward.SPARSE:
-        raise HadimError("curious learns on the sparse reward, as in the paper: --reward sparse")
+    why = refusal(algo, choice(Reward, reward, "reward"), acts)
+    if why is not None:
+        raise HadimError(why)
     if eval_every % CHUNK_MULTIPLE:
         raise HadimError(f"--eval-every must be a multiple of {CHUNK_MULTIPLE}, got {eval_every}")
     params = {Algorithm.Q_LEARNING: asdict(QLearningParams()), Algorithm.DQN: DQN_PARAMS,
@@ -102,8 +112,9 @@ def make_config(algorithm: str, task: str, reward: str, actions: str, horizon: i
     chosen = dict(params[algo])
     if "learning_starts" in chosen:  # HER samples only from finished episodes
         chosen["learning_starts"] = min(chosen["learning_starts"], episode_length)
-    return BaselineConfig(algo.value, task, reward, acts.value, horizon, eval_every or 1000,
-                          eval_every, episode_length, chosen, asdict(world))
+    return BaselineConfig(algo.value, task, reward, acts.value, horizon=horizon,
+                          chunk=eval_every or 1000, eval_every=eval_every,
+                          episode_length=episode_length, params=chosen, world=asdict(world))
 
 
 def read_config(stored: dict[str, Any]) -> BaselineConfig:

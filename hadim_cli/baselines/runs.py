@@ -120,6 +120,10 @@ def restore(store: Store, run: RunRecord, at: int | None = None) -> BaselineSess
     return session
 
 
+def evaluate_tasks(session: BaselineSession, tasks: tuple[str, ...]) -> dict[str, TaskResult]:
+    return {name: session.evaluate(load_task(name)) for name in tasks}
+
+
 def check_total(total: int) -> None:
     if total % CHUNK_MULTIPLE:
         raise HadimError(f"--iterations must be a multiple of {CHUNK_MULTIPLE} for a baseline "

@@ -11,6 +11,7 @@ from hadim_cli.commands.common import SetOption, StoreOption
 from hadim_cli.errors import HadimError
 
 app = typer.Typer()
+ALL_TASKS = "move-robot,push-object,push-with-tool"
 
 
 def _shared_store(option: str | None) -> str:
@@ -42,16 +43,29 @@ def sweep(
     iterations: Annotated[int, typer.Option("--iterations", "-n", min=1,
                                             help="Iterations of every run.")] = 4000,
     eval_every: Annotated[int | None, typer.Option(
-        "--eval-every", min=0, help="Evaluate every N iterations (default: evaluation.every).")
+        "--eval-every", min=0, help="Evaluate every N iterations (default: evaluation.every; "
+        "baselines: 1000).")
     ] = None,
     address: Annotated[str | None, typer.Option(
         help="A running Ray cluster (e.g. ray://head:10001 or auto); default: a local "
         "instance on this machine's cores.")] = None,
     num_cpus: Annotated[int | None, typer.Option(
         "--num-cpus", min=1, help="Cores of the local Ray instance (default: all).")] = None,
+    algo: Annotated[str | None, typer.Option(
+        "--algo", help="RL baselines to run too: q-learning,dqn,a2c,curious (comma-separated); "
+        "without -c the sweep holds the baselines only.")] = None,
+    task: Annotated[str, typer.Option(
+        "--task", help="Baselines' tasks (comma-separated).")] = ALL_TASKS,
+    reward: Annotated[str, typer.Option(
+        "--reward", help="Baselines' rewards (comma-separated; curious: sparse only).")
+    ] = "sparse,guided",
+    actions: Annotated[str, typer.Option(
+        "--actions", help="Baselines' actions: discrete, continuous (a2c only) or both.")
+    ] = "discrete",
     store: StoreOption = None,
 ) -> None:
-    """Run every (config, grid value, seed) as a run of the store, in parallel on Ray.
+    """Run every (config, grid value, seed) — and with --algo every (algorithm, task, reward,
+    seed) of the RL baselines — as a run of the store, in parallel on Ray.
 
     Re-running the same command resumes unfinished runs and skips finished ones. Ctrl-C
     stops every run after its current episode (checkpointed); a second Ctrl-C aborts."""
@@ -62,8 +76,14 @@ def sweep(
     if address and num_cpus:
         raise HadimError("--num-cpus sizes a local Ray instance; a cluster (--address) has "
                          "its own")
+    baselines = None if algo is None else plans.BaselineGrid(
+        plans.parse_list(algo, "algo"), plans.parse_list(task, "task"),
+        plans.parse_list(reward, "reward"), plans.parse_list(actions, "actions"))
     built = plans.build_plan(name, configs=config or [], grid=grid or [], sets=set_ or [],
-                             seeds=seeds, iterations=iterations, eval_every=eval_every)
+                             seeds=seeds, iterations=iterations, eval_every=eval_every,
+                             baselines=baselines)
+    for line in built.left_out:
+        typer.echo(f"left out: {line}", err=True)
     url = _shared_store(store)
     try:
         import ray  # noqa: F401

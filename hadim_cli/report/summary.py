@@ -37,8 +37,9 @@ def score_summary(evaluations: list[list]) -> dict[str, dict[str, dict[str, floa
 
 
 def build_summary(store, groups: dict[str, list[str]]) -> dict[str, Any]:
-    """Per config the scores by task and iteration; per run its iterations, H at the end (as
-    `hadim affordances --json` shows it) and its number of events."""
+    """Per config the scores by task and iteration; per run its iterations, D's digest, and H
+    at the end (as `hadim affordances --json` shows it) and its number of events for a
+    learner run, the algorithm, task, reward and actions for a baseline run."""
     from hadim_cli import runs
     from hadim_cli.reports import affordance_rows
 
@@ -47,10 +48,19 @@ def build_summary(store, groups: dict[str, list[str]]) -> dict[str, Any]:
         summary["configs"][label] = score_summary([store.evaluations(n) for n in names])
         for name in names:
             record = store.get_run(name)
-            session = runs.restore_session(store, record)
-            summary["runs"][name] = {"config": label, "seed": record.seed,
-                                     "status": record.status, "iterations": record.iterations,
-                                     "affordances": affordance_rows(session),
-                                     "events": len(store.events(name)),
-                                     "dataset_sha256": store.dataset_sha256(name)}
+            row = {"config": label, "seed": record.seed, "status": record.status,
+                   "iterations": record.iterations,
+                   "dataset_sha256": store.dataset_sha256(name)}
+            if is_baseline(record.config):
+                b = record.config["baseline"]
+                row["baseline"] = {k: b[k] for k in ("algorithm", "task", "reward", "actions")}
+            else:
+                session = runs.restore_session(store, record)
+                row.update(affordances=affordance_rows(session),
+                           events=len(store.events(name)))
+            summary["runs"][name] = row
     return summary
+
+
+def is_baseline(config: dict[str, Any]) -> bool:
+    return config.get("kind") == "baseline"

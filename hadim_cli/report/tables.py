@@ -17,7 +17,7 @@ def score_table(summary: dict[str, Any], iterations: list[int]) -> str:
     lines = ["| config | task | " + " | ".join(str(i) for i in iterations) + " |",
              "|---|---|" + "---|" * len(iterations)]
     for cfg, tasks in summary["configs"].items():
-        for task in TASKS:
+        for task in (t for t in TASKS if t in tasks):  # a baseline is evaluated on its task
             cells = []
             for it in iterations:
                 cell = tasks.get(task, {}).get(str(it))

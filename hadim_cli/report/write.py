@@ -5,9 +5,11 @@ from __future__ import annotations
 import json
 from pathlib import Path
 
+from hadim_cli.baselines.tasks import GOAL_RADIUS
 from hadim_cli.errors import HadimError
+from hadim_cli.plots import timeline_figure
+from hadim_cli.report import baselines, tables
 from hadim_cli.report import summary as summaries
-from hadim_cli.report import tables
 
 REFERENCE = "default"
 
@@ -26,32 +28,55 @@ def report_iterations(summary: dict, wanted: list[int] | None) -> list[int]:
 
 
 def write_report(store, sweep: str, out: Path, at: list[int] | None = None) -> list[Path]:
-    """summary.json, tables.md, competence.png (if the runs were evaluated) and
-    timelines/RUN.png into `out`; returns the files written."""
-    from hadim_cli.plots import comparison_figure, timeline_figure
+    """summary.json, tables.md, competence.png (if the learner's runs were evaluated),
+    timelines/RUN.png of every learner run, and with baseline runs fig5.png (paper Fig. 5)
+    into `out`; returns the files written."""
+    from hadim_cli.plots import comparison_figure
 
     groups = summaries.sweep_groups(store, sweep)
+    configs = {label: store.get_run(names[0]).config for label, names in groups.items()}
+    learner = {label: names for label, names in groups.items()
+               if not summaries.is_baseline(configs[label])}
     try:
-        (out / "timelines").mkdir(parents=True, exist_ok=True)
+        (out / "timelines" if learner else out).mkdir(parents=True, exist_ok=True)
     except OSError as exc:
         raise HadimError(f"cannot write the report to {out}: {exc.strerror or exc}") from None
     summary = summaries.build_summary(store, groups)
     written = [out / "summary.json", out / "tables.md"]
     evaluations = {label: [store.evaluations(n) for n in names] for label, names in groups.items()}
-    if any(evs for runs in evaluations.values() for evs in runs):  # else: trained with no eval
+    if any(evs for label in learner for evs in evaluations[label]):  # else: trained with no eval
         written.append(out / "competence.png")
-        comparison_figure(evaluations, written[-1], tables.TASKS)
-    for names in groups.values():
+        comparison_figure({label: evaluations[label] for label in learner}, written[-1],
+                          tables.TASKS)
+    parts = [f"# Sweep {sweep}", "## Scores (mean ± std over seeds)",
+             tables.score_table(summary, report_iterations(summary, at))]
+    if len(learner) < len(groups):
+        fig5 = _fig5_groups(configs, evaluations)
+        summary["comparison"] = baselines.comparison_summary(fig5, GOAL_RADIUS)
+        parts += ["## Reinforcement-learning comparison (paper §5.3, Fig. 5)",
+                  baselines.comparison_table(fig5, GOAL_RADIUS)]
+        if any(evs for runs in fig5.values() for evs in runs):
+            written.append(out / "fig5.png")
+            comparison_figure(fig5, written[-1], tables.TASKS, log_x=True)
+    for names in learner.values():
         for name in names:
             path = out / "timelines" / f"{name}.png"
             timeline_figure(store.events(name), store.get_run(name).iterations, path)
             written.append(path)
     written[0].write_text(json.dumps(summary, indent=1, sort_keys=True))
-    reference = REFERENCE if REFERENCE in groups else next(iter(groups))
-    run_md, counts = tables.run_table(store, groups[reference])
-    parts = [f"# Sweep {sweep}", "## Scores (mean ± std over seeds)",
-             tables.score_table(summary, report_iterations(summary, at)),
-             "## The paper's targets", tables.target_table(summary, reference),
-             f"## H at the end, per seed ({reference})", run_md, tables.counts_line(counts)]
+    if learner:
+        reference = REFERENCE if REFERENCE in learner else next(iter(learner))
+        run_md, counts = tables.run_table(store, learner[reference])
+        parts += ["## The paper's targets", tables.target_table(summary, reference),
+                  f"## H at the end, per seed ({reference})", run_md,
+                  tables.counts_line(counts)]
     written[1].write_text("\n\n".join(parts) + "\n")
     return written
+
+
+def _fig5_groups(configs: dict[str, dict], evaluations: dict[str, list]) -> dict[str, list]:
+    """The sweep's runs as the paper's legend: algorithm (reward), and the learner's configs."""
+    fig5: dict[str, list] = {}
+    for label, runs in evaluations.items():
+        fig5.setdefault(baselines.group_label(configs[label], label), []).extend(runs)
+    return fig5

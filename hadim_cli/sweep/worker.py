@@ -52,25 +52,72 @@ def _train(store_url: str, entry: SweepEntry, should_stop: Callable[[], bool]) -
     from hadim_cli import runs
     from hadim_cli.config import config_from_dict
     from hadim_cli.heartbeat import keep_alive
+    from store.records import RunStatus
+
+    def create(store):
+        return runs.new_run(store, config_from_dict(entry.config), entry.seed, entry.run)
+
+    def work(store, owner: str) -> RunStatus:
+        session = runs.restore_session(store, store.get_run(entry.run))
+        store.set_status(entry.run, RunStatus.RUNNING)
+        tasks = session.config.evaluation.tasks
+        with keep_alive(store, entry.run, owner):
+            _catch_up_evaluation(store, entry, session.iteration, tasks,
+                                 lambda missing: runs.evaluate_tasks(session, missing))
+            runs.train(store, entry.run, session, entry.iterations,
+                       eval_every=entry.eval_every, tasks=tasks,
+                       should_stop=should_stop, owner=owner)
+        return runs.finish_status(session, entry.iterations)
+
+    return _locked_run(store_url, entry, create, work)
+
+
+def _baseline(store_url: str, entry: SweepEntry,
+              should_stop: Callable[[], bool]) -> EntryResult:
+    import torch
+
+    from hadim_cli.baselines import runs as baseline_runs
+    from hadim_cli.heartbeat import keep_alive
+    from store.records import RunStatus
+
+    torch.set_num_threads(1)  # one run per core, as `hadim baseline train`
+    cfg = baseline_runs.read_config(entry.config)
+
+    def create(store):
+        return baseline_runs.new_run(store, cfg, entry.seed, entry.run)
+
+    def work(store, owner: str) -> RunStatus:
+        session = baseline_runs.restore(store, store.get_run(entry.run))
+        store.set_status(entry.run, RunStatus.RUNNING)
+        with keep_alive(store, entry.run, owner):
+            _catch_up_evaluation(store, entry, session.iteration, (cfg.task,),
+                                 lambda missing: baseline_runs.evaluate_tasks(session, missing))
+            baseline_runs.train(store, entry.run, session, entry.iterations,
+                                eval_every=entry.eval_every, tasks=(cfg.task,),
+                                should_stop=should_stop, owner=owner)
+        return (RunStatus.FINISHED if session.iteration >= entry.iterations
+                else RunStatus.PAUSED)
+
+    return _locked_run(store_url, entry, create, work)
+
+
+def _locked_run(store_url: str, entry: SweepEntry, create: Callable, work: Callable
+                ) -> EntryResult:
+    """`work(store, owner)` on the entry's run (created by `create(store)` if new) under its
+    lock; the status it returns is written, `failed` if it raised."""
+    from hadim_cli import runs
     from store.api import Store
     from store.records import RunStatus
 
     with Store.open(store_url, create=False) as store:
-        record = _existing_or_new(store, entry, config_from_dict(entry.config))
+        record = _existing_or_new(store, entry, create)
         if record.status == RunStatus.FINISHED.value and record.iterations >= entry.iterations:
             return EntryResult(entry.run, "skipped", record.iterations)
         owner = runs.owner_id()
         _acquire(store, entry.run, owner)
         status = RunStatus.FAILED
         try:
-            session = runs.restore_session(store, store.get_run(entry.run))
-            store.set_status(entry.run, RunStatus.RUNNING)
-            with keep_alive(store, entry.run, owner):
-                _catch_up_evaluation(store, entry, session)
-                runs.train(store, entry.run, session, entry.iterations,
-                           eval_every=entry.eval_every, tasks=session.config.evaluation.tasks,
-                           should_stop=should_stop, owner=owner)
-            status = runs.finish_status(session, entry.iterations)
+            status = work(store, owner)
         finally:
             if _holds_lock(store, entry.run, owner):
                 store.set_status(entry.run, status)
@@ -78,30 +125,28 @@ def _train(store_url: str, entry: SweepEntry, should_stop: Callable[[], bool]) -
         return EntryResult(entry.run, status.value, store.get_run(entry.run).iterations)
 
 
-def _catch_up_evaluation(store, entry: SweepEntry, session) -> None:
+def _catch_up_evaluation(store, entry: SweepEntry, it: int, tasks: tuple[str, ...],
+                         evaluate: Callable) -> None:
     """A worker killed between an episode's write and its evaluation: evaluate now (evaluation
     changes nothing of the learner, so the run's D is unaffected)."""
-    from hadim_cli import runs
-
-    it = session.iteration
-    tasks = session.config.evaluation.tasks
     if not (it and entry.eval_every and it % entry.eval_every == 0 and tasks):
         return
     done = {e.task for e in store.evaluations(entry.run) if e.iteration == it}
     missing = tuple(t for t in tasks if t not in done)
-    for name, result in runs.evaluate_tasks(session, missing).items():
+    if not missing:
+        return
+    for name, result in evaluate(missing).items():
         store.add_evaluation(entry.run, it, name, result.score, result.to_dict()["points"])
 
 
-def _existing_or_new(store, entry: SweepEntry, config):
-    from hadim_cli import runs
+def _existing_or_new(store, entry: SweepEntry, create: Callable):
     from store.errors import StoreError, UnknownRun
 
     try:
         record = store.get_run(entry.run)
     except UnknownRun:
         try:
-            return runs.new_run(store, config, entry.seed, entry.run)
+            return create(store)
         except StoreError:  # created meanwhile by a retry of this task
             record = store.get_run(entry.run)
     if record.seed != entry.seed or record.config != json.loads(json.dumps(entry.config)):
@@ -132,4 +177,5 @@ def _holds_lock(store, run: str, owner: str) -> bool:
 
 RUNNERS: dict[RunKind, Callable[[str, SweepEntry, Callable[[], bool]], EntryResult]] = {
     RunKind.TRAIN: _train,
+    RunKind.BASELINE: _baseline,
 }
