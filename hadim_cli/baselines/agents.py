@@ -67,7 +67,8 @@ class BaselineConfig:
     horizon: int = 50_000
     """Iterations the exploration schedule spans (the first `train`'s --iterations)."""
     chunk: int = 1000
-    """Iterations between checkpoints (and evaluations, when on)."""
+    """Iterations between checkpoints (--checkpoint-every; default --eval-every, else 1000);
+    evaluations also end a chunk."""
     eval_every: int = 1000
     episode_length: int = 1000
     """Actions before an episode is truncated (the paper's 1000)."""
@@ -96,7 +97,7 @@ def refusal(algo: Algorithm, reward: Reward, actions: Actions) -> str | None:
 
 def make_config(algorithm: str, task: str, reward: str, actions: str, horizon: int,
                 eval_every: int, world: WorldConfig, episode_length: int = 1000,
-                ) -> BaselineConfig:
+                checkpoint_every: int | None = None) -> BaselineConfig:
     """A checked config with the algorithm's parameters resolved; `HadimError` if impossible."""
     algo = choice(Algorithm, algorithm, "algorithm")
     acts = choice(Actions, actions, "actions")
@@ -105,15 +106,16 @@ def make_config(algorithm: str, task: str, reward: str, actions: str, horizon: i
     why = refusal(algo, choice(Reward, reward, "reward"), acts)
     if why is not None:
         raise HadimError(why)
-    if eval_every % CHUNK_MULTIPLE:
-        raise HadimError(f"--eval-every must be a multiple of {CHUNK_MULTIPLE}, got {eval_every}")
+    for option, value in (("--eval-every", eval_every), ("--checkpoint-every", checkpoint_every)):
+        if value is not None and value % CHUNK_MULTIPLE:
+            raise HadimError(f"{option} must be a multiple of {CHUNK_MULTIPLE}, got {value}")
     params = {Algorithm.Q_LEARNING: asdict(QLearningParams()), Algorithm.DQN: DQN_PARAMS,
               Algorithm.A2C: A2C_PARAMS, Algorithm.CURIOUS: {**DQN_PARAMS, "her": HER_PARAMS}}
     chosen = dict(params[algo])
     if "learning_starts" in chosen:  # HER samples only from finished episodes
         chosen["learning_starts"] = min(chosen["learning_starts"], episode_length)
     return BaselineConfig(algo.value, task, reward, acts.value, horizon=horizon,
-                          chunk=eval_every or 1000, eval_every=eval_every,
+                          chunk=checkpoint_every or eval_every or 1000, eval_every=eval_every,
                           episode_length=episode_length, params=chosen, world=asdict(world))
 
 

@@ -38,6 +38,9 @@ def train(
                                                 "--iterations).")] = None,
     episode_length: Annotated[int, typer.Option("--episode-length", min=1, help="Actions "
                                                 "before an episode is cut.")] = 1000,
+    checkpoint_every: Annotated[int | None, typer.Option(
+        "--checkpoint-every", min=20, help="Iterations between checkpoints (a multiple of 20; "
+        "default: --eval-every, else 1000).")] = None,
     name: Annotated[str | None, typer.Option(help="Run name (default run-N).")] = None,
     store: StoreOption = None,
 ) -> None:
@@ -49,7 +52,7 @@ def train(
     from hadim_cli.config import WorldConfig
 
     cfg = make_config(algo, task, reward, actions, horizon or iterations, eval_every,
-                      WorldConfig(), episode_length)
+                      WorldConfig(), episode_length, checkpoint_every)
     baseline_runs.check_total(iterations)
     _threads()
     with runs.open_store(store) as st:

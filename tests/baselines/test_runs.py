@@ -138,4 +138,6 @@ def test_bad_input_is_one_error_line(tmp_path):
             match="a2c")
     refused("baseline", "train", "--algo", "dqn", "--task", "move-robot", "--iterations", 50,
             "--store", store, match="multiple of 20")
+    refused(*base, "--algo", "dqn", "--task", "move-robot", "--checkpoint-every", 30,
+            match="--checkpoint-every must be a multiple of 20, got 30")
     assert not store.exists() or not Store.open(store).list_runs()
