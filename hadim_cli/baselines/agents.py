@@ -17,6 +17,7 @@ buffer, which rebuilds SB3's circular and HER episode bookkeeping exactly.
 from __future__ import annotations
 
 import enum
+import math
 from dataclasses import asdict, dataclass, field
 from typing import Any
 
@@ -82,6 +83,10 @@ class BaselineConfig:
         return {"kind": "baseline", "baseline": asdict(self)}
 
     @property
+    def multiple(self) -> int:
+        return chunk_multiple(self.params, self.n_envs)
+
+    @property
     def world_config(self) -> WorldConfig:
         return WorldConfig(**self.world) if self.world else WorldConfig()
 
@@ -95,9 +100,25 @@ def refusal(algo: Algorithm, reward: Reward, actions: Actions) -> str | None:
     return None
 
 
+def chunk_multiple(params: dict[str, Any], n_envs: int) -> int:
+    """What chunks, totals and evaluation periods are multiples of, so that SB3 never runs
+    past a chunk's end: a DQN training step (train_freq steps of every environment) and an
+    A2C rollout (n_steps of every environment) end on it."""
+    step = int(params.get("train_freq", params.get("n_steps", 1)))
+    return math.lcm(CHUNK_MULTIPLE, step * n_envs)
+
+
+def _check_envs(algo: Algorithm, n_envs: int) -> None:
+    if n_envs < 1:
+        raise HadimError(f"--n-envs must be at least 1, got {n_envs}")
+    if n_envs > 1 and algo not in (Algorithm.DQN, Algorithm.A2C):
+        raise HadimError(f"{algo.value} runs one environment (--n-envs 1): only dqn and a2c "
+                         "step several")
+
+
 def make_config(algorithm: str, task: str, reward: str, actions: str, horizon: int,
                 eval_every: int, world: WorldConfig, episode_length: int = 1000,
-                checkpoint_every: int | None = None) -> BaselineConfig:
+                checkpoint_every: int | None = None, n_envs: int = 1) -> BaselineConfig:
     """A checked config with the algorithm's parameters resolved; `HadimError` if impossible."""
     algo = choice(Algorithm, algorithm, "algorithm")
     acts = choice(Actions, actions, "actions")
@@ -106,17 +127,21 @@ def make_config(algorithm: str, task: str, reward: str, actions: str, horizon: i
     why = refusal(algo, choice(Reward, reward, "reward"), acts)
     if why is not None:
         raise HadimError(why)
-    for option, value in (("--eval-every", eval_every), ("--checkpoint-every", checkpoint_every)):
-        if value is not None and value % CHUNK_MULTIPLE:
-            raise HadimError(f"{option} must be a multiple of {CHUNK_MULTIPLE}, got {value}")
+    _check_envs(algo, n_envs)
     params = {Algorithm.Q_LEARNING: asdict(QLearningParams()), Algorithm.DQN: DQN_PARAMS,
               Algorithm.A2C: A2C_PARAMS, Algorithm.CURIOUS: {**DQN_PARAMS, "her": HER_PARAMS}}
     chosen = dict(params[algo])
+    multiple = chunk_multiple(chosen, n_envs)
+    for option, value in (("--eval-every", eval_every), ("--checkpoint-every", checkpoint_every)):
+        if value is not None and value % multiple:
+            raise HadimError(f"{option} must be a multiple of {multiple}, got {value}")
     if "learning_starts" in chosen:  # HER samples only from finished episodes
         chosen["learning_starts"] = min(chosen["learning_starts"], episode_length)
     return BaselineConfig(algo.value, task, reward, acts.value, horizon=horizon,
-                          chunk=checkpoint_every or eval_every or 1000, eval_every=eval_every,
-                          episode_length=episode_length, params=chosen, world=asdict(world))
+                          chunk=checkpoint_every or eval_every or -(-1000 // multiple) * multiple,
+                          eval_every=eval_every,
+                          episode_length=episode_length, n_envs=n_envs, params=chosen,
+                          world=asdict(world))
 
 
 def read_config(stored: dict[str, Any]) -> BaselineConfig:
@@ -139,6 +164,7 @@ class QAgent:
     def __init__(self, cfg: BaselineConfig, seed: int):
         self.base = environment(cfg)
         self.env = self.base
+        self.bases = [self.base]
         self.q = TabularQ(self.base, QLearningParams(**cfg.params), cfg.horizon,
                           np.random.default_rng(seed))
 
@@ -210,10 +236,11 @@ class SB3Agent:
         from stable_baselines3.common.vec_env import DummyVecEnv
 
         self.algorithm = Algorithm(cfg.algorithm)
-        self.base = environment(cfg)
-        self.env: GoalWorldEnv | ModularGoalEnv = (
-            ModularGoalEnv(self.base) if self.algorithm is Algorithm.CURIOUS else self.base)
-        vec = DummyVecEnv([lambda: self.env])
+        self.bases = [environment(cfg) for _ in range(cfg.n_envs)]
+        self.envs: list[GoalWorldEnv | ModularGoalEnv] = [
+            ModularGoalEnv(b) if self.algorithm is Algorithm.CURIOUS else b for b in self.bases]
+        self.base, self.env = self.bases[0], self.envs[0]
+        vec = DummyVecEnv([lambda e=e: e for e in self.envs])
         params = dict(cfg.params)
         common = {"policy": "MultiInputPolicy", "env": vec, "seed": seed, "device": "cpu",
                   "verbose": 0}
@@ -251,7 +278,9 @@ class SB3Agent:
             "episode_starts": (None if m._last_episode_starts is None
                                else m._last_episode_starts.tolist()),
             "action_space": m.action_space.np_random.bit_generator.state,
-            "env": self.env.snapshot(),
+            # one environment: its snapshot (the format of runs stored before n_envs)
+            "env": (self.env.snapshot() if len(self.envs) == 1
+                    else [e.snapshot() for e in self.envs]),
             "rng": global_rngs(arrays),
         }
         buffer = getattr(m, "replay_buffer", None)
@@ -278,9 +307,10 @@ class SB3Agent:
         if meta["episode_starts"] is not None:
             m._last_episode_starts = np.array(meta["episode_starts"], dtype=bool)
         m.action_space.np_random.bit_generator.state = meta["action_space"]
-        obs = self.env.restore(meta["env"])
-        if obs is not None:
-            m._last_obs = {k: v[None].copy() for k, v in obs.items()}
+        snaps = meta["env"] if isinstance(meta["env"], list) else [meta["env"]]
+        obs = [e.restore(snap) for e, snap in zip(self.envs, snaps, strict=True)]
+        if obs[0] is not None:
+            m._last_obs = {k: np.stack([o[k] for o in obs]) for k in obs[0]}
             m._last_original_obs = m._last_obs
         set_global_rngs(meta["rng"], arrays)
 

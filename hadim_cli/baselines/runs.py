@@ -46,7 +46,8 @@ class BaselineSession:
         self.agent = make_agent(cfg, agent_seed)
         self.chunks_done = 0
         self._rows: list[tuple] = []
-        self.agent.base.recorder = self._record
+        for env in self.agent.bases:  # rows in the order the vectorised env steps them
+            env.recorder = self._record
 
     @property
     def iteration(self) -> int:
@@ -124,9 +125,9 @@ def evaluate_tasks(session: BaselineSession, tasks: tuple[str, ...]) -> dict[str
     return {name: session.evaluate(load_task(name)) for name in tasks}
 
 
-def check_total(total: int) -> None:
-    if total % CHUNK_MULTIPLE:
-        raise HadimError(f"--iterations must be a multiple of {CHUNK_MULTIPLE} for a baseline "
+def check_total(total: int, multiple: int = CHUNK_MULTIPLE) -> None:
+    if total % multiple:
+        raise HadimError(f"--iterations must be a multiple of {multiple} for this baseline "
                          f"run, got {total}")
 
 
@@ -137,7 +138,7 @@ def train(store: Store | None, run: str | None, session: BaselineSession, total:
           owner: str | None = None) -> dict[str, float]:
     """Run `session` to `total` iterations chunk by chunk, storing each (when a store is
     given), evaluating every `eval_every` iterations; the same contract as `runs.train`."""
-    check_total(total)
+    check_total(total, session.cfg.multiple)
     scores: dict[str, float] = {}
     loaded = [load_task(name) for name in tasks]
     while session.iteration < total:

@@ -29,7 +29,7 @@ def train(
     actions: Annotated[str, typer.Option("--actions", help="discrete (the paper's 4) or "
                                          "continuous (a2c only).")] = "discrete",
     iterations: Annotated[int, typer.Option("--iterations", "-n", min=20, help="Total "
-                                            "iterations (a multiple of 20).")] = 50_000,
+                                            "iterations (a multiple of 20 × --n-envs).")] = 50_000,
     seed: Annotated[int, typer.Option(help="Seed of the run's root generator.")] = 0,
     eval_every: Annotated[int, typer.Option("--eval-every", min=0, help="Evaluate on the "
                                             "task every N iterations (0 off).")] = 1000,
@@ -41,6 +41,9 @@ def train(
     checkpoint_every: Annotated[int | None, typer.Option(
         "--checkpoint-every", min=20, help="Iterations between checkpoints (a multiple of 20; "
         "default: --eval-every, else 1000).")] = None,
+    n_envs: Annotated[int, typer.Option(
+        "--n-envs", min=1, help="Environments stepped together (dqn, a2c); iterations count "
+        "all of their steps.")] = 1,
     name: Annotated[str | None, typer.Option(help="Run name (default run-N).")] = None,
     store: StoreOption = None,
 ) -> None:
@@ -52,8 +55,8 @@ def train(
     from hadim_cli.config import WorldConfig
 
     cfg = make_config(algo, task, reward, actions, horizon or iterations, eval_every,
-                      WorldConfig(), episode_length, checkpoint_every)
-    baseline_runs.check_total(iterations)
+                      WorldConfig(), episode_length, checkpoint_every, n_envs)
+    baseline_runs.check_total(iterations, cfg.multiple)
     _threads()
     with runs.open_store(store) as st:
         record = baseline_runs.new_run(st, cfg, seed, name)
@@ -67,15 +70,15 @@ def resume_baseline(st, record, iterations: int | None, eval_every: int | None,
                     store_option: str | None) -> None:
     """`hadim resume` on a baseline run."""
     from hadim_cli.baselines import runs as baseline_runs
-    from hadim_cli.baselines.agents import CHUNK_MULTIPLE
     from hadim_cli.commands.training import _drive
 
     session = baseline_runs.restore(st, record)
     total = iterations or max(session.cfg.horizon, record.iterations)
-    baseline_runs.check_total(total)
+    multiple = session.cfg.multiple
+    baseline_runs.check_total(total, multiple)
     every = session.cfg.eval_every if eval_every is None else eval_every
-    if every % CHUNK_MULTIPLE:
-        raise HadimError(f"--eval-every must be a multiple of {CHUNK_MULTIPLE}, got {every}")
+    if every % multiple:
+        raise HadimError(f"--eval-every must be a multiple of {multiple}, got {every}")
     if session.iteration >= total:
         raise HadimError(f"run {record.name} already has {session.iteration} iterations "
                          f"(asked for {total}); pass a larger --iterations")

@@ -125,6 +125,10 @@ def baseline(
     iterations: Annotated[int, typer.Option("--iterations", "-n", min=20,
                                             help="Iterations (a multiple of 20).")] = 3000,
     seed: Annotated[int, typer.Option("--seed", help="Seed of the run.")] = 0,
+    actions: Annotated[str, typer.Option("--actions", help="discrete or continuous (a2c).")
+                       ] = "discrete",
+    n_envs: Annotated[int, typer.Option("--n-envs", min=1, help="Environments stepped "
+                                        "together (dqn, a2c).")] = 1,
     json_: JsonOption = False,
 ) -> None:
     """Iterations per second of a baseline's training (no store, no evaluation)."""
@@ -137,16 +141,18 @@ def baseline(
     from hadim_cli.config import WorldConfig
 
     torch.set_num_threads(1)
-    cfg = make_config(algo, task, reward, "discrete", iterations, 0, WorldConfig())
-    baseline_runs.check_total(iterations)
+    cfg = make_config(algo, task, reward, actions, iterations, 0, WorldConfig(), n_envs=n_envs)
+    baseline_runs.check_total(iterations, cfg.multiple)
     session = baseline_runs.BaselineSession(cfg, seed)
     start = time.perf_counter()
     baseline_runs.train(None, None, session, iterations)
     wall = time.perf_counter() - start
-    result = {"algorithm": algo, "task": task, "reward": reward, "iterations": iterations,
-              "seconds": wall, "iterations_per_s": iterations / wall}
+    result = {"algorithm": algo, "task": task, "reward": reward, "actions": actions,
+              "n_envs": n_envs, "iterations": iterations, "seconds": wall,
+              "iterations_per_s": iterations / wall}
     if json_:
         typer.echo(json.dumps(result))
         return
-    typer.echo(f"{algo} {reward} {task}: {iterations} iterations in {wall:.1f} s, "
+    typer.echo(f"{algo} {reward} {task} ({actions}, {n_envs} env): {iterations} iterations "
+               f"in {wall:.1f} s, "
                f"{iterations / wall:,.0f} iterations/s")

@@ -98,6 +98,27 @@ def test_resume_is_exact_for_a2c_and_q_learning(tmp_path, algo, actions):
         assert_same_state(st.checkpoint("straight"), st.checkpoint("resumed"))
 
 
+@pytest.mark.parametrize(("algo", "actions", "n_envs"), [("dqn", "discrete", 2),
+                                                       ("a2c", "continuous", 4)])
+def test_several_environments_resume_exactly(tmp_path, algo, actions, n_envs):
+    """Each environment's episode in progress, and the replay rows of all of them, are
+    checkpointed: stopping half-way gives the straight run's state."""
+    total = 160 * n_envs // 2
+    with Store.open(tmp_path / "s.sqlite") as st:
+        for name, stops in (("straight", (total,)), ("resumed", (total // 2, total))):
+            cfg = make_config(algo, "push-object", "guided", actions, total, 0, WorldConfig(),
+                              30, checkpoint_every=20 * n_envs, n_envs=n_envs)
+            baseline_runs.new_run(st, cfg, 3, name)
+            for stop in stops:
+                session = baseline_runs.restore(st, st.get_run(name))
+                baseline_runs.train(st, name, session, stop)
+        straight = st.checkpoint("straight")
+        assert_same_state(straight, st.checkpoint("resumed"))
+        assert len(straight.json["agent"]["env"]) == n_envs  # one episode per environment
+        assert straight.json["agent"]["counters"]["_n_updates"] > 0
+        assert st.dataset("resumed").contexts.shape == (total, 8)
+
+
 def test_evaluating_never_changes_training(tmp_path):
     with Store.open(tmp_path / "s.sqlite") as st:
         for name, tasks in (("quiet", ()), ("evaluated", ("push-with-tool",))):
@@ -140,4 +161,8 @@ def test_bad_input_is_one_error_line(tmp_path):
             "--store", store, match="multiple of 20")
     refused(*base, "--algo", "dqn", "--task", "move-robot", "--checkpoint-every", 30,
             match="--checkpoint-every must be a multiple of 20, got 30")
+    refused(*base, "--algo", "q-learning", "--task", "move-robot", "--n-envs", 2,
+            match="q-learning runs one environment")
+    refused(*base, "--algo", "dqn", "--task", "move-robot", "--n-envs", 4, "--eval-every", 0,
+            match="--iterations must be a multiple of 80")
     assert not store.exists() or not Store.open(store).list_runs()
