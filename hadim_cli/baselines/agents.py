@@ -135,6 +135,8 @@ def make_config(algorithm: str, task: str, reward: str, actions: str, horizon: i
     for option, value in (("--eval-every", eval_every), ("--checkpoint-every", checkpoint_every)):
         if value is not None and value % multiple:
             raise HadimError(f"{option} must be a multiple of {multiple}, got {value}")
+    if "gradient_steps" in chosen:  # one gradient step per train_freq steps of each env
+        chosen["gradient_steps"] *= n_envs
     if "learning_starts" in chosen:  # HER samples only from finished episodes
         chosen["learning_starts"] = min(chosen["learning_starts"], episode_length)
     return BaselineConfig(algo.value, task, reward, acts.value, horizon=horizon,

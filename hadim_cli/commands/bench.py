@@ -144,15 +144,17 @@ def baseline(
     cfg = make_config(algo, task, reward, actions, iterations, 0, WorldConfig(), n_envs=n_envs)
     baseline_runs.check_total(iterations, cfg.multiple)
     session = baseline_runs.BaselineSession(cfg, seed)
-    start = time.perf_counter()
+    start, cpu = time.perf_counter(), time.process_time()
     baseline_runs.train(None, None, session, iterations)
     wall = time.perf_counter() - start
+    cpu = time.process_time() - cpu  # what a loaded machine does not inflate
     result = {"algorithm": algo, "task": task, "reward": reward, "actions": actions,
               "n_envs": n_envs, "iterations": iterations, "seconds": wall,
-              "iterations_per_s": iterations / wall}
+              "iterations_per_s": iterations / wall, "cpu_seconds": cpu,
+              "iterations_per_cpu_s": iterations / cpu}
     if json_:
         typer.echo(json.dumps(result))
         return
     typer.echo(f"{algo} {reward} {task} ({actions}, {n_envs} env): {iterations} iterations "
-               f"in {wall:.1f} s, "
-               f"{iterations / wall:,.0f} iterations/s")
+               f"in {wall:.1f} s, {iterations / wall:,.0f} iterations/s; "
+               f"{iterations / cpu:,.0f} per CPU-second")

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import json
 import pickle
 import sqlite3
 from pathlib import Path
@@ -166,3 +167,11 @@ def test_bad_input_is_one_error_line(tmp_path):
     refused(*base, "--algo", "dqn", "--task", "move-robot", "--n-envs", 4, "--eval-every", 0,
             match="--iterations must be a multiple of 80")
     assert not store.exists() or not Store.open(store).list_runs()
+
+
+def test_bench_baseline_reports_its_rates():
+    out = ok("bench", "baseline", "--algo", "a2c", "--n-envs", 2, "--iterations", 40,
+             "--json").stdout
+    result = json.loads(out)
+    assert (result["algorithm"], result["n_envs"], result["iterations"]) == ("a2c", 2, 40)
+    assert result["iterations_per_cpu_s"] > 0 and result["iterations_per_s"] > 0
