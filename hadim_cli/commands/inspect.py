@@ -281,8 +281,7 @@ def plot(
 
 
 def _group(config: dict) -> str:
-    """The curve a run belongs to: the learner, or algorithm + reward."""
-    if config.get("kind") == "baseline":
-        b = config["baseline"]
-        return f"{b['algorithm']} ({b['reward']})"
-    return "hadim (learner)"
+    """The curve a run belongs to: the learner, or algorithm + reward (+ continuous actions)."""
+    from hadim_cli.report.baselines import group_label
+
+    return group_label(config, "learner")

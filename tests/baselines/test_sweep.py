@@ -11,7 +11,7 @@ from typer.testing import CliRunner
 
 from hadim_cli.app import app
 from hadim_cli.errors import HadimError
-from hadim_cli.report.baselines import comparison_table, first_at, zone_share
+from hadim_cli.report.baselines import comparison_table, first_at, group_label, zone_share
 from hadim_cli.sweep.plan import BaselineGrid, RunKind, build_plan
 from store.api import Store
 from store.records import Evaluation
@@ -71,6 +71,16 @@ def test_the_grid_with_the_learner_and_its_refusals(tmp_path):
 def _evaluation(it: int, score: float, finals: list[list[float]]) -> Evaluation:
     points = [{"target": [0.0, 0.0], "final": f, "contact_failed": False} for f in finals]
     return Evaluation(it, "move-robot", score, points, None)
+
+
+def test_runs_are_grouped_as_the_paper_s_legend():
+    def baseline(actions: str) -> dict:
+        return {"kind": "baseline", "baseline": {"algorithm": "a2c", "reward": "guided",
+                                                 "actions": actions}}
+
+    assert group_label(baseline("discrete"), "rl-a2c-guided-push-object") == "a2c (guided)"
+    assert group_label(baseline("continuous"), "x") == "a2c (guided, continuous)"
+    assert group_label({"world": {}}, "default") == "hadim (default)"
 
 
 def test_the_table_reads_when_each_group_learned():
