@@ -74,14 +74,15 @@ def _train(store_url: str, entry: SweepEntry, should_stop: Callable[[], bool]) -
 
 def _baseline(store_url: str, entry: SweepEntry,
               should_stop: Callable[[], bool]) -> EntryResult:
-    import torch
-
     from hadim_cli.baselines import runs as baseline_runs
     from hadim_cli.heartbeat import keep_alive
     from store.records import RunStatus
 
-    torch.set_num_threads(1)  # one run per core, as `hadim baseline train`
     cfg = baseline_runs.read_config(entry.config)
+    if cfg.algorithm != "q-learning":  # ours, numpy only: no torch to load
+        import torch
+
+        torch.set_num_threads(1)  # one run per core, as `hadim baseline train`
 
     def create(store):
         return baseline_runs.new_run(store, cfg, entry.seed, entry.run)

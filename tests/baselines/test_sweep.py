@@ -100,28 +100,31 @@ def test_sweep_runs_the_grid_like_one_by_one_and_reports_it(tmp_path):
     store = tmp_path / "s.sqlite"
     runner = CliRunner()
     result = runner.invoke(app, [
-        "sweep", "rl", "--algo", "q-learning,dqn", "--task", "move-robot", "--reward", "guided",
+        "sweep", "rl", "--algo", "q-learning", "--task", "move-robot", "--reward", "sparse,guided",
         "--seeds", "0", "-n", "300", "--eval-every", "100", "--num-cpus", "2",
         "--store", str(store)])
     assert result.exit_code == 0, (result.output, result.exception)
-    assert result.stdout.splitlines() == ["rl-q-learning-guided-move-robot-s0\tfinished\t300/300",
-                                          "rl-dqn-guided-move-robot-s0\tfinished\t300/300"]
-    one = runner.invoke(app, ["baseline", "train", "--algo", "dqn", "--task", "move-robot",
+    assert result.stdout.splitlines() == [
+        "rl-q-learning-sparse-move-robot-s0\tfinished\t300/300",
+        "rl-q-learning-guided-move-robot-s0\tfinished\t300/300"]
+    one = runner.invoke(app, ["baseline", "train", "--algo", "q-learning", "--task", "move-robot",
                               "--reward", "guided", "-n", "300", "--eval-every", "100",
                               "--name", "ref", "--store", str(store)])
     assert one.exit_code == 0, one.output
     with Store.open(store, create=False) as st:
-        assert st.dataset_sha256("rl-dqn-guided-move-robot-s0") == st.dataset_sha256("ref")
-        assert ([e.iteration for e in st.evaluations("rl-dqn-guided-move-robot-s0")]
-                == [100, 200, 300])
+        run = "rl-q-learning-guided-move-robot-s0"
+        assert st.dataset_sha256(run) == st.dataset_sha256("ref")
+        assert st.dataset_sha256(run) != st.dataset_sha256("rl-q-learning-sparse-move-robot-s0")
+        assert [e.iteration for e in st.evaluations(run)] == [100, 200, 300]
     out = tmp_path / "report"
     report = runner.invoke(app, ["report", "rl", "--out", str(out), "--store", str(store)])
     assert report.exit_code == 0, (report.output, report.exception)
     assert sorted(p.name for p in out.iterdir()) == ["fig5.png", "summary.json", "tables.md"]
     assert (out / "fig5.png").read_bytes().startswith(PNG)
     tables = (out / "tables.md").read_text()
+    assert "| q-learning (sparse) | move-robot | 1 |" in tables
     assert "| q-learning (guided) | move-robot | 1 |" in tables
-    assert "| dqn (guided) | move-robot | 1 |" in tables
     summary = json.loads((out / "summary.json").read_text())
-    assert summary["comparison"]["dqn (guided)"]["move-robot"]["iterations"] == [100, 200, 300]
-    assert summary["runs"]["rl-dqn-guided-move-robot-s0"]["baseline"]["algorithm"] == "dqn"
+    assert (summary["comparison"]["q-learning (guided)"]["move-robot"]["iterations"]
+            == [100, 200, 300])
+    assert summary["runs"][run]["baseline"]["reward"] == "guided"
