@@ -56,7 +56,8 @@ def zone_share(points: Sequence[Mapping[str, Any]], radius: float) -> float:
 
 @dataclass(frozen=True)
 class Curve:
-    """A group's runs on one task: per evaluated iteration, every run's score and zone share."""
+    """A group's runs on one task: per iteration every run was evaluated at, every run's score
+    and zone share."""
 
     iterations: tuple[int, ...]
     scores: tuple[tuple[float, ...], ...]
@@ -77,9 +78,11 @@ def curve(runs_evaluations: Sequence[Sequence], task: str, radius: float) -> Cur
         reached += any(e.score >= THRESHOLD for e in mine)
         for e in mine:
             by_it.setdefault(e.iteration, []).append((e.score, zone_share(e.points, radius)))
-    if not by_it:
+    # Only iterations every run reached: a sweep still running has runs at different points,
+    # and a mean over the front-runners alone is not the group's.
+    its = sorted(it for it, values in by_it.items() if len(values) == runs)
+    if not its:
         return None
-    its = sorted(by_it)
     return Curve(tuple(its), tuple(tuple(s for s, _ in by_it[i]) for i in its),
                  tuple(tuple(z for _, z in by_it[i]) for i in its), runs, reached)
 

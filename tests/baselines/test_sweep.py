@@ -92,6 +92,10 @@ def test_the_table_reads_when_each_group_learned():
     table = comparison_table({"dqn (guided)": [a, b]}, 0.1).splitlines()
     assert table[2] == ("| dqn (guided) | move-robot | 2 | not reached | 1/2 | 2000 | "
                         "0.89 ± 0.03 (2000, n=2) | learned in 10k–20k (every algorithm) |")
+    behind = [_evaluation(1000, 0.95, [[0.05, 0]] * 2)]  # a run of a sweep still running
+    table = comparison_table({"dqn (guided)": [a, b, behind]}, 0.1).splitlines()
+    assert table[2].startswith("| dqn (guided) | move-robot | 3 | not reached | 2/3 | "
+                               "not reached | 0.72 ± 0.18 (1000, n=3) |")
 
 
 @pytest.mark.filterwarnings("ignore::DeprecationWarning")
