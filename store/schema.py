@@ -166,7 +166,7 @@ def _stamp(conn: Connection, version: int) -> None:
     command.stamp(_config(conn), migrations.revision_id(version))
 
 
-def _config(conn: Connection):
+def _config(conn: Connection | None):
     from alembic.config import Config
 
     config = Config()

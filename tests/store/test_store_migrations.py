@@ -260,3 +260,17 @@ def test_a_dry_run_writes_nothing(tmp_path):
     assert [r.revision for r in report.revisions] == ["0002"]
     assert contents(str(path)) == before
     assert upgrade_store(path).changed and not upgrade_store(path).changed
+
+
+def test_a_new_revision_file_is_numbered_after_the_head_and_plans(tmp_path, monkeypatch):
+    from store.migrations.__main__ import new_revision
+
+    folder = tmp_path / "versions"
+    folder.mkdir()
+    monkeypatch.setattr(migrations, "VERSION_LOCATIONS", [*migrations.VERSION_LOCATIONS, folder])
+    path = new_revision("add notes to runs", folder)
+    assert path.name == f"{NEXT:04d}_add_notes_to_runs.py"
+    monkeypatch.setattr(migrations, "SCHEMA_VERSION", NEXT)
+    (step,) = schema.plan(SchemaState(SCHEMA_VERSION, migrations.revision_id(SCHEMA_VERSION)))
+    assert (step.revision, step.title, step.automatic) == (f"{NEXT:04d}", "add notes to runs",
+                                                           False)
