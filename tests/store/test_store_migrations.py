@@ -274,3 +274,18 @@ def test_a_new_revision_file_is_numbered_after_the_head_and_plans(tmp_path, monk
     (step,) = schema.plan(SchemaState(SCHEMA_VERSION, migrations.revision_id(SCHEMA_VERSION)))
     assert (step.revision, step.title, step.automatic) == (f"{NEXT:04d}", "add notes to runs",
                                                            False)
+
+
+def test_the_wheel_ships_the_alembic_environment():
+    """env.py and versions/ are packages' modules (tests/test_first_day.py checks those are
+    listed); the template is package data, which must be named in pyproject.toml."""
+    import tomllib
+
+    root = Path(__file__).parents[2]
+    setup = tomllib.loads((root / "pyproject.toml").read_text())["tool"]["setuptools"]
+    folder = root / "store" / "migrations"
+    data = {p.relative_to(folder) for pattern in setup["package-data"]["store.migrations"]
+            for p in folder.glob(pattern)}
+    assert data == {p.relative_to(folder) for p in folder.rglob("*")
+                    if p.is_file() and p.suffix not in (".py", ".pyc")}
+    assert {"store.migrations", "store.migrations.versions"} <= set(setup["packages"])
