@@ -289,3 +289,69 @@ def test_the_wheel_ships_the_alembic_environment():
     assert data == {p.relative_to(folder) for p in folder.rglob("*")
                     if p.is_file() and p.suffix not in (".py", ".pyc")}
     assert {"store.migrations", "store.migrations.versions"} <= set(setup["packages"])
+
+
+def _before_alembic(url: str, fill) -> None:
+    """A schema-2 store as a hadim from before alembic left it: no alembic table."""
+    a_store_with_a_run(url, fill)
+    engine = raw(url)
+    with engine.begin() as conn:
+        conn.execute(text(f"DROP TABLE {migrations.VERSION_TABLE}"))
+    engine.dispose()
+
+
+def test_processes_opening_an_old_store_at_once_upgrade_it_once(url, fill):
+    """SQLite serialises the upgrades with BEGIN IMMEDIATE, a server with an advisory lock;
+    each opener reads the state again inside its transaction, so the later ones find it done."""
+    from concurrent.futures import ThreadPoolExecutor
+
+    _before_alembic(url, fill)
+
+    def open_it(_: int) -> int:
+        with Store.open(url) as store:
+            return store.get_run("run-1").iterations
+
+    with ThreadPoolExecutor(4) as pool:
+        assert list(pool.map(open_it, range(4))) == [12] * 4
+    assert version_facts(url) == (str(SCHEMA_VERSION), [migrations.revision_id(SCHEMA_VERSION)])
+
+
+_KILLED_MID_UPGRADE = """
+import sys
+from store import Store, migrations
+migrations.VERSION_LOCATIONS.append(sys.argv[2])
+migrations.SCHEMA_VERSION += 1
+Store.open(sys.argv[1])
+"""
+
+
+def test_a_process_killed_mid_upgrade_leaves_the_store_as_it_was(url, fill, revisions,
+                                                               tmp_path):
+    import os
+    import signal
+    import subprocess
+    import sys
+    import time
+
+    a_store_with_a_run(url, fill)
+    marker = tmp_path / "half-done"
+    revisions("slow", f"""
+op.add_column('runs', sa.Column('notes', sa.Text))
+op.execute('DELETE FROM checkpoint_items')
+open({str(marker)!r}, 'w').close()
+import time; time.sleep(120)
+""")
+    monkey_folder = str(migrations.VERSION_LOCATIONS[-1])
+    before = contents(url)
+    child = subprocess.Popen([sys.executable, "-c", _KILLED_MID_UPGRADE, url, monkey_folder],
+                             env={**os.environ, "PYTHONPATH": str(Path(__file__).parents[2])})
+    try:
+        deadline = time.monotonic() + 60
+        while not marker.exists() and child.poll() is None and time.monotonic() < deadline:
+            time.sleep(0.05)
+        assert marker.exists(), f"the upgrade did not start (exit {child.poll()})"
+    finally:
+        child.send_signal(signal.SIGKILL)
+        child.wait()
+    assert contents(url) == before
+    assert version_facts(url) == (str(SCHEMA_VERSION), [migrations.revision_id(SCHEMA_VERSION)])
