@@ -151,11 +151,14 @@ class Store:
         lock_timeout: float = DEFAULT_LOCK_TIMEOUT_S,
         compress: bool = True,
         snapshot_every: int = deltas.DEFAULT_SNAPSHOT_EVERY,
+        upgrade: bool = True,
     ) -> Store:
         """Open (and with ``create``, initialise) the store at a path or SQLAlchemy URL.
 
         A file that is not SQLite, or a SQLite database that is not a hadim store, is refused
-        with :class:`SchemaError` before anything is written to it. An older schema is
+        with :class:`SchemaError` before anything is written to it. Without ``upgrade`` a store
+        that would need one is refused too (one of this schema from before alembic is read as
+        it is, unstamped): opening then writes nothing to the schema. An older schema is
         migrated; a newer one is refused. ``compress`` deflates new arrays with zlib.
         One checkpoint in ``snapshot_every`` that this object writes for a run is a full
         snapshot, the others deltas (1: all full); see :mod:`store.deltas`.
@@ -163,7 +166,7 @@ class Store:
         resolved, where = _locate(url, create=create)
         engine = engines.make_engine(resolved)
         try:
-            engines.prepare_schema(engine, where, create=create)
+            engines.prepare_schema(engine, where, create=create, upgrade=upgrade)
         except BaseException:
             engine.dispose()
             raise

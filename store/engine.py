@@ -152,12 +152,13 @@ def make_engine(url: URL) -> Engine:
 
 
 def prepare_schema(engine: Engine, where: str, *, create: bool, explicit: bool = False,
-                   dry_run: bool = False) -> schema.Upgrade | None:
+                   dry_run: bool = False, upgrade: bool = True) -> schema.Upgrade | None:
     """Create the tables in an empty database (None), or bring an older schema to this hadim's,
     in one transaction that a failure rolls back whole; a store already current is untouched.
 
     Opening applies only revisions marked ``automatic``; ``explicit`` (`hadim store upgrade`)
-    applies them all. ``dry_run`` says what would be done and writes nothing."""
+    applies them all. ``dry_run`` says what would be done and writes nothing. Without
+    ``upgrade``, a store needing one is refused (one only lacking alembic's stamp is used)."""
     with _server_errors(engine, where), engine.connect() as conn, _schema_connection(conn):
         conn = conn.execution_options(**{BEGIN_MODE_OPTION: "IMMEDIATE"})
         with conn.begin() as transaction:
@@ -172,8 +173,12 @@ def prepare_schema(engine: Engine, where: str, *, create: bool, explicit: bool =
                 return None
             report = schema.Upgrade(where, state.version, migrations.SCHEMA_VERSION, (),
                                     stamped=state.revision is None)
-            if state.current:
+            if state.current or (not upgrade and state.version == migrations.SCHEMA_VERSION):
                 return report
+            if not upgrade:
+                raise SchemaError(f"{where} has schema version {state.version} and this hadim "
+                                  f"reads {migrations.SCHEMA_VERSION}: run `hadim store upgrade "
+                                  f"--store {where}` first")
             report = replace(report, revisions=tuple(schema.plan(state)))
             _refuse_manual(report, explicit)
             if dry_run:

@@ -180,3 +180,18 @@ def test_store_upgrade_of_no_store_is_one_line(runner, tmp_path, where):
     target = str(tmp_path / where) if "://" not in where else where
     refused(runner, "store", "upgrade", "--store", target)
     assert list(tmp_path.iterdir()) == []
+
+
+def test_store_check_reads_old_stores_without_upgrading_them(runner, tmp_path):
+    v2, v1 = copy_fixture("store_v2.sqlite", tmp_path), copy_fixture("store_v1.sqlite", tmp_path)
+    out = ok(runner, "store", "check", "--store", v2)
+    assert "run-1: readable (100 iterations, 2 checkpoints)" in out
+    out = ok(runner, "store", "check", "--store", v1)
+    assert "runs not read: " in out and f"hadim store upgrade --store {v1}" in out
+    for store, version in ((v2, "2"), (v1, "1")):
+        con = sqlite3.connect(store)
+        tables = {t for (t,) in con.execute("SELECT name FROM sqlite_master WHERE type='table'")}
+        assert con.execute("SELECT value FROM meta WHERE key = 'schema_version'").fetchone() == \
+            (version,)
+        con.close()
+        assert migrations.VERSION_TABLE not in tables
