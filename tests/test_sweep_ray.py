@@ -1,8 +1,7 @@
 """`hadim sweep` on a real local Ray instance: 4 short runs with the same D as runs made one by
 one, a re-run that skips them, a killed worker's run retried from its checkpoint, and Ctrl-C.
 
-Each sweep starts its own small Ray instance (--num-cpus 2); runs are a few 25-action episodes
-(the checks need several episodes per run, not long ones: the cost is the iterations).
+Each sweep starts its own small Ray instance (--num-cpus 2); runs are a few 50-action episodes.
 """
 
 from __future__ import annotations
@@ -24,10 +23,8 @@ from store.errors import StoreError
 pytest.importorskip("ray")
 
 ROOT = Path(__file__).resolve().parents[1]
-EPISODE = 25
-SMALL = ["--set", f"world.episode_length={EPISODE}", "--eval-every", "0", "--num-cpus", "2"]
-SHORT = 50  # the in-process sweep of four runs: two episodes each
-LONG = 150  # the subprocess sweeps: six episodes, room to interrupt mid-way
+SMALL = ["--set", "world.episode_length=50", "--eval-every", "0", "--num-cpus", "2"]
+LONG = 300  # the subprocess sweeps: long enough to interrupt mid-way
 
 
 def _digest(store: Path, run: str) -> str:
@@ -39,7 +36,7 @@ def _one_by_one(runner, tmp_path: Path, seed: int, iterations: int, *args: str) 
     """D's digest of the same run made with `hadim train`."""
     store = tmp_path / f"one-{seed}.db"
     result = runner.invoke(app, ["train", "-n", str(iterations), "--seed", str(seed),
-                                 "--set", f"world.episode_length={EPISODE}", "--eval-every", "0",
+                                 "--set", "world.episode_length=50", "--eval-every", "0",
                                  *args, "--name", "ref", "--store", str(store)])
     assert result.exit_code == 0, result.output
     return _digest(store, "ref")
@@ -52,9 +49,8 @@ def four_runs(tmp_path_factory) -> Path:
     store = tmp_path_factory.mktemp("sweep") / "s.db"
     result = CliRunner().invoke(app, [
         "sweep", "four", "--seeds", "0-1", "-c", str(ROOT / "configs/random-only.toml"),
-        "-c", str(ROOT / "configs/goal-babbling-only.toml"), "-n", str(SHORT), *SMALL,
-        "--eval-every", str(SHORT), "--set", 'evaluation.tasks=["move-robot"]',
-        "--store", str(store)])
+        "-c", str(ROOT / "configs/goal-babbling-only.toml"), "-n", "100", *SMALL,
+        "--eval-every", "100", "--set", 'evaluation.tasks=["move-robot"]', "--store", str(store)])
     assert result.exit_code == 0, (result.output, result.exception)
     return store
 
@@ -64,11 +60,11 @@ def test_four_runs_match_runs_made_one_by_one(four_runs, runner, tmp_path):
         runs = {r.name: r for r in st.list_runs()}
     assert sorted(runs) == sorted(f"four-{c}-s{s}" for c in ("random-only", "goal-babbling-only")
                                   for s in (0, 1))
-    assert all(r.status == "finished" and r.iterations == SHORT and r.lock is None
+    assert all(r.status == "finished" and r.iterations == 100 and r.lock is None
                for r in runs.values())
     assert runs["four-goal-babbling-only-s1"].config["learner"]["sigma"] == 1.0
     for seed in (0, 1):
-        expected = _one_by_one(runner, tmp_path, seed, SHORT, "-c",
+        expected = _one_by_one(runner, tmp_path, seed, 100, "-c",
                                str(ROOT / "configs/goal-babbling-only.toml"))
         assert _digest(four_runs, f"four-goal-babbling-only-s{seed}") == expected
     assert _digest(four_runs, "four-random-only-s0") != _digest(four_runs, "four-random-only-s1")
@@ -79,11 +75,11 @@ def test_rerun_skips_finished_runs(four_runs, runner):
         before = {r.name: r.updated_at for r in st.list_runs()}
     result = runner.invoke(app, [
         "sweep", "four", "--seeds", "0-1", "-c", str(ROOT / "configs/random-only.toml"),
-        "-c", str(ROOT / "configs/goal-babbling-only.toml"), "-n", str(SHORT), *SMALL,
-        "--eval-every", str(SHORT), "--set", 'evaluation.tasks=["move-robot"]',
+        "-c", str(ROOT / "configs/goal-babbling-only.toml"), "-n", "100", *SMALL,
+        "--eval-every", "100", "--set", 'evaluation.tasks=["move-robot"]',
         "--store", str(four_runs)])
     assert result.exit_code == 0, result.output
-    assert result.stdout.count(f"finished\t{SHORT}/{SHORT}") == 4
+    assert result.stdout.count("finished\t100/100") == 4
     with Store.open(four_runs, create=False) as st:
         assert {r.name: r.updated_at for r in st.list_runs()} == before
 
@@ -104,7 +100,7 @@ def test_report_from_the_sweep(four_runs, runner, tmp_path):
         scores = [e.score for r in runs[:2] for e in st.evaluations(r)]
         for run in runs:
             assert summary["runs"][run]["dataset_sha256"] == st.dataset_sha256(run)
-    cell = summary["configs"]["random-only"]["move-robot"][str(SHORT)]
+    cell = summary["configs"]["random-only"]["move-robot"]["100"]
     assert cell["n"] == 2 and cell["mean"] == pytest.approx(sum(scores) / 2)
     tables = (out / "tables.md").read_text()
     assert "| random-only | move-robot | " in tables and "four-random-only-s1 |" in tables
@@ -154,7 +150,7 @@ def test_killed_worker_is_retried_from_its_checkpoint(runner, tmp_path):
     with Store.open(store, create=False) as st:
         run = st.get_run("kill-default-s3")
         assert run.status == "finished" and run.iterations == LONG and run.lock is None
-        assert [e.index for e in st.episodes(run.name)] == list(range(LONG // EPISODE))
+        assert [e.index for e in st.episodes(run.name)] == list(range(LONG // 50))
     assert _digest(store, "kill-default-s3") == _one_by_one(runner, tmp_path, 3, LONG)
 
 
