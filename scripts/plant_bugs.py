@@ -21,6 +21,7 @@ from typing import NamedTuple
 ROOT = Path(__file__).resolve().parents[1]
 STEPS = "tests/learner/test_algorithm_steps.py"
 TRIP = "tests/learner/test_state_round_trip.py"
+MIGRATIONS = "tests/store/test_store_migrations.py"
 
 
 class Bug(NamedTuple):
@@ -157,6 +158,22 @@ BUGS = (
         "    learner.learning_episodes = int(meta[\"learning_episodes\"])\n", "", TRIP),
     Bug("low-streak-not-restored", "hadim_cli/learner/state.py",
         "int(meta[\"low_streak\"]))", "0)", TRIP),
+    # The store's migrations (tests/store/test_store_migrations.py).
+    Bug("upgrade-cascades", "store/schema.py", 'raw.execute("PRAGMA foreign_keys = OFF")',
+        "pass", f"{MIGRATIONS}::test_a_manual_revision_waits_for_upgrade_and_a_rebuild"
+        "_cascades_nothing[file]"),
+    Bug("upgrade-skips-fk-check", "store/schema.py", "        if orphans:", "        if False:",
+        f"{MIGRATIONS}::test_rows_left_pointing_nowhere_refuse_the_upgrade_on_sqlite"),
+    Bug("stamp-committed-alone", "store/schema.py", "        _stamp(conn, state.version)\n",
+        "        _stamp(conn, state.version)\n        conn.commit()\n",
+        f"{MIGRATIONS}::test_a_failed_upgrade_of_a_store_from_before_alembic_stamps_nothing"),
+    Bug("manual-revision-on-open", "store/engine.py", "if manual and not explicit:",
+        "if False:", f"{MIGRATIONS}::test_a_manual_revision_waits_for_upgrade_and_a_rebuild"
+        "_cascades_nothing[file]"),
+    Bug("revision-1-drifts", "store/migrations/versions/0001_schema_1.py",
+        'sa.Column("task", sa.String(128), nullable=False)',
+        'sa.Column("task", sa.String(128), nullable=True)',
+        f"{MIGRATIONS}::test_revision_1_is_the_schema_of_a_store_written_by_schema_1"),
 )
 
 

@@ -11,7 +11,8 @@ from typing import Any
 # Submodules are imported on first use: `import store.errors` must stay cheap (the CLI's
 # `--help` imports it), while `store.api` pulls in SQLAlchemy.
 _WHERE = {
-    "DatasetArrays": "store.api", "Store": "store.api",
+    "DatasetArrays": "store.api", "Store": "store.api", "upgrade_store": "store.api",
+    "Upgrade": "store.schema",
     "CodecError": "store.errors", "RunLocked": "store.errors", "SchemaError": "store.errors",
     "StoreError": "store.errors", "UnknownRun": "store.errors",
     "SCHEMA_VERSION": "store.migrations",
@@ -48,4 +49,6 @@ __all__ = [
     "Store",
     "StoreError",
     "UnknownRun",
+    "Upgrade",
+    "upgrade_store",
 ]

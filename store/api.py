@@ -15,7 +15,7 @@ from pathlib import Path
 from typing import Any, NamedTuple
 
 import numpy as np
-from sqlalchemy import Engine, Select, delete, func, insert, literal, select, text, update
+from sqlalchemy import URL, Engine, Select, delete, func, insert, literal, select, text, update
 from sqlalchemy.exc import IntegrityError
 from sqlalchemy.orm import Session, sessionmaker
 
@@ -45,6 +45,7 @@ from store.records import (
     RunRecord,
     RunStatus,
 )
+from store.schema import Upgrade
 
 DEFAULT_LOCK_TIMEOUT_S = 60.0
 _NAME_RE = re.compile(r"[A-Za-z0-9][A-Za-z0-9._-]{0,63}")
@@ -95,6 +96,33 @@ def _check_name(name: str) -> str:
     return name
 
 
+def _locate(url: str | Path, *, create: bool) -> tuple[URL, str]:
+    """The store's URL and how to name it in messages; a SQLite file is checked first, read
+    only (not a hadim store, or too new: refused with nothing written)."""
+    resolved = engines.resolve_url(url)
+    path = engines.sqlite_file(resolved)
+    if path is not None:
+        engines.check_sqlite_file(path, create=create)
+    return resolved, str(path) if path is not None else resolved.render_as_string(
+        hide_password=True)
+
+
+def upgrade_store(url: str | Path, *, dry_run: bool = False) -> Upgrade:
+    """Bring an existing store to this hadim's schema: every pending revision, including those
+    not applied on open, in one transaction (a failure leaves the store as it was).
+
+    ``dry_run`` reports what would be applied and writes nothing. See docs/store.md."""
+    resolved, where = _locate(url, create=False)
+    engine = engines.make_engine(resolved)
+    try:
+        report = engines.prepare_schema(engine, where, create=False, explicit=True,
+                                        dry_run=dry_run)
+    finally:
+        engine.dispose()
+    assert report is not None  # create=False: an empty database was refused
+    return report
+
+
 class Store:
     """A hadim experiment store on one SQLAlchemy engine.
 
@@ -123,23 +151,22 @@ class Store:
         lock_timeout: float = DEFAULT_LOCK_TIMEOUT_S,
         compress: bool = True,
         snapshot_every: int = deltas.DEFAULT_SNAPSHOT_EVERY,
+        upgrade: bool = True,
     ) -> Store:
         """Open (and with ``create``, initialise) the store at a path or SQLAlchemy URL.
 
         A file that is not SQLite, or a SQLite database that is not a hadim store, is refused
-        with :class:`SchemaError` before anything is written to it. An older schema is
+        with :class:`SchemaError` before anything is written to it. Without ``upgrade`` a store
+        that would need one is refused too (one of this schema from before alembic is read as
+        it is, unstamped): opening then writes nothing to the schema. An older schema is
         migrated; a newer one is refused. ``compress`` deflates new arrays with zlib.
         One checkpoint in ``snapshot_every`` that this object writes for a run is a full
         snapshot, the others deltas (1: all full); see :mod:`store.deltas`.
         """
-        resolved = engines.resolve_url(url)
-        path = engines.sqlite_file(resolved)
-        where = str(path) if path is not None else resolved.render_as_string(hide_password=True)
-        if path is not None:
-            engines.check_sqlite_file(path, create=create)
+        resolved, where = _locate(url, create=create)
         engine = engines.make_engine(resolved)
         try:
-            engines.prepare_schema(engine, where, create=create)
+            engines.prepare_schema(engine, where, create=create, upgrade=upgrade)
         except BaseException:
             engine.dispose()
             raise

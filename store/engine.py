@@ -7,16 +7,16 @@ from __future__ import annotations
 import sqlite3
 from collections.abc import Iterator
 from contextlib import contextmanager
+from dataclasses import replace
 from pathlib import Path
 
-from sqlalchemy import Connection, Engine, create_engine, event, inspect, select, text
+from sqlalchemy import Connection, Engine, create_engine, event, text
 from sqlalchemy.engine import URL, make_url
 from sqlalchemy.exc import ArgumentError, DBAPIError, NoSuchModuleError, OperationalError
 from sqlalchemy.pool import StaticPool
 
-from store import migrations
+from store import migrations, schema
 from store.errors import DamagedStore, SchemaError, StoreError
-from store.models import Base, Meta
 
 BUSY_TIMEOUT_S = 10.0
 _SQLITE_HEADER = b"SQLite format 3\x00"
@@ -74,7 +74,7 @@ def check_sqlite_file(path: Path, *, create: bool) -> None:
         "sqlite://", creator=lambda: _connect_readonly(path), poolclass=StaticPool)
     try:
         with readonly.connect() as conn:
-            version = read_schema_version(conn, str(path))
+            version = schema.read_state(conn, str(path)).version
     except DBAPIError as exc:
         raise SchemaError(f"{path} is a corrupt or unreadable SQLite database: {exc.orig}") from exc
     finally:
@@ -121,30 +121,6 @@ def require_intact(path: Path) -> None:
                            f"docs/store.md, 'A damaged store'")
 
 
-def read_schema_version(conn: Connection, where: str) -> int | None:
-    """The store's schema version; None for an empty database. Raises if foreign or too new."""
-    tables = inspect(conn).get_table_names()
-    if not tables:
-        return None
-    if Meta.__tablename__ not in tables:
-        raise SchemaError(f"{where} is not a hadim store (it has tables but no hadim metadata)")
-    facts = {key: value for key, value in conn.execute(select(Meta.key, Meta.value))}
-    if facts.get("application") != migrations.APPLICATION:
-        raise SchemaError(
-            f"{where} is not a hadim store (application={facts.get('application')!r})"
-        )
-    try:
-        version = int(facts["schema_version"])
-    except (KeyError, ValueError) as exc:
-        raise SchemaError(f"{where} is a corrupt hadim store: no valid schema_version") from exc
-    if version > migrations.SCHEMA_VERSION:
-        raise SchemaError(
-            f"{where} has schema version {version} but this hadim reads up to "
-            f"{migrations.SCHEMA_VERSION}: upgrade hadim to open it"
-        )
-    return version
-
-
 def make_engine(url: URL) -> Engine:
     """One engine for one store object; SQLite gets WAL, busy timeout and foreign keys."""
     if not is_sqlite(url):
@@ -175,28 +151,64 @@ def make_engine(url: URL) -> Engine:
     return engine
 
 
-def prepare_schema(engine: Engine, where: str, *, create: bool) -> None:
-    """Create the tables in an empty database, or migrate an older schema, in one transaction."""
-    with _server_errors(engine, where), engine.connect() as conn:
+def prepare_schema(engine: Engine, where: str, *, create: bool, explicit: bool = False,
+                   dry_run: bool = False, upgrade: bool = True) -> schema.Upgrade | None:
+    """Create the tables in an empty database (None), or bring an older schema to this hadim's,
+    in one transaction that a failure rolls back whole; a store already current is untouched.
+
+    Opening applies only revisions marked ``automatic``; ``explicit`` (`hadim store upgrade`)
+    applies them all. ``dry_run`` says what would be done and writes nothing. Without
+    ``upgrade``, a store needing one is refused (one only lacking alembic's stamp is used)."""
+    with _server_errors(engine, where), engine.connect() as conn, _schema_connection(conn):
         conn = conn.execution_options(**{BEGIN_MODE_OPTION: "IMMEDIATE"})
-        with conn.begin():
+        with conn.begin() as transaction:
             if is_postgresql(engine.url):
                 # Processes opening a new server store at once: one creates, the others wait.
                 conn.execute(text("SELECT pg_advisory_xact_lock(:key)"), {"key": SCHEMA_LOCK_KEY})
-            version = read_schema_version(conn, where)
-            if version is None:
+            state = schema.read_state(conn, where)
+            if state.version is None:
                 if not create:
                     raise StoreError(f"no hadim store at {where}")
-                Base.metadata.create_all(conn)
-                conn.execute(
-                    Meta.__table__.insert(),
-                    [
-                        {"key": "application", "value": migrations.APPLICATION},
-                        {"key": "schema_version", "value": str(migrations.SCHEMA_VERSION)},
-                    ],
-                )
-            elif version < migrations.SCHEMA_VERSION:
-                _migrate(conn, version, where)
+                schema.create(conn)
+                return None
+            report = schema.Upgrade(where, state.version, migrations.SCHEMA_VERSION, (),
+                                    stamped=state.revision is None)
+            if state.current or (not upgrade and state.version == migrations.SCHEMA_VERSION):
+                return report
+            if not upgrade:
+                raise SchemaError(f"{where} has schema version {state.version} and this hadim "
+                                  f"reads {migrations.SCHEMA_VERSION}: run `hadim store upgrade "
+                                  f"--store {where}` first")
+            report = replace(report, revisions=tuple(schema.plan(state)))
+            _refuse_manual(report, explicit)
+            if dry_run:
+                transaction.rollback()
+                return report
+            path = sqlite_file(engine.url)
+            if path is not None:
+                require_intact(path)  # an upgrade would spread damage: refuse first
+            schema.apply(conn, state, list(report.revisions), where)
+            return report
+
+
+def _refuse_manual(report: schema.Upgrade, explicit: bool) -> None:
+    manual = [r for r in report.revisions if not r.automatic]
+    if manual and not explicit:
+        raise SchemaError(
+            f"{report.where} has schema version {report.from_version} and this hadim uses "
+            f"{report.to_version}; revision {manual[0].revision} ({manual[0].title}) is not "
+            f"applied on open: back the store up, then run `hadim store upgrade --store "
+            f"{report.where}`")
+
+
+@contextmanager
+def _schema_connection(conn: Connection) -> Iterator[None]:
+    """SQLite: foreign keys off while the schema changes (a rebuilt table must not cascade)."""
+    if not is_sqlite(conn.engine.url):
+        yield
+        return
+    with schema.foreign_keys_off(conn):
+        yield
 
 
 # --- database servers (PostgreSQL): engine, one-line errors -------------------------------
@@ -234,17 +246,3 @@ def _server_errors(engine: Engine, where: str) -> Iterator[None]:
 def _first_line(exc: BaseException | None) -> str:
     lines = str(exc).strip().splitlines()
     return lines[0] if lines else type(exc).__name__
-
-
-def _migrate(conn: Connection, version: int, where: str) -> None:
-    try:
-        steps = migrations.plan(version, migrations.SCHEMA_VERSION, migrations.MIGRATIONS)
-    except LookupError as exc:
-        raise SchemaError(f"cannot upgrade {where}: {exc}") from exc
-    for step in steps:
-        step.apply(conn)
-    conn.execute(
-        Meta.__table__.update()
-        .where(Meta.key == "schema_version")
-        .values(value=str(migrations.SCHEMA_VERSION))
-    )

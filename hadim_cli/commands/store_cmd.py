@@ -1,15 +1,17 @@
-"""`hadim store check`: is a store file sound, and which of its runs can still be read?"""
+"""`hadim store check`: is a store file sound, and which of its runs can still be read?
+`hadim store upgrade`: bring a store to this hadim's schema (alembic revisions)."""
 
 from __future__ import annotations
 
 from pathlib import Path
+from typing import Annotated
 
 import typer
 
 from hadim_cli.commands.common import StoreOption
 from hadim_cli.errors import HadimError
 
-app = typer.Typer(help="Check a store file.", no_args_is_help=True)
+app = typer.Typer(help="Check a store file; upgrade a store's schema.", no_args_is_help=True)
 
 
 @app.command("check")
@@ -39,13 +41,48 @@ def check(store: StoreOption = None) -> None:
         raise typer.Exit(1)
 
 
+@app.command("upgrade")
+def upgrade(
+    store: StoreOption = None,
+    dry_run: Annotated[bool, typer.Option(
+        "--dry-run", help="Say which revisions would be applied; write nothing.")] = False,
+) -> None:
+    """Bring the store to this hadim's schema: every pending revision, including those that
+    opening a store does not apply (docs/store.md), in one transaction: a failure leaves the
+    store as it was. A store newer than this hadim is refused, unchanged."""
+    from hadim_cli import runs
+    from store.api import upgrade_store
+
+    where = runs.store_location(store)
+    if "://" not in where and not Path(where).is_file():
+        raise HadimError(f"no store at {where}")
+    runs.opened[:] = [where]
+    report = upgrade_store(where, dry_run=dry_run)
+    if not report.changed:
+        typer.echo(f"{report.where}: schema version {report.to_version}, up to date")
+        return
+    moved = (f"{report.from_version} -> {report.to_version}" if report.revisions
+             else str(report.to_version))
+    typer.echo(f"{report.where}: schema version {moved}"
+               + (" (dry run: nothing written)" if dry_run else ""))
+    for revision in report.revisions:
+        typer.echo(f"  {revision.revision} {revision.title}")
+    if report.stamped:
+        typer.echo(f"  alembic's version table {'would be' if dry_run else 'was'} added (the "
+                   "store was written by a hadim from before alembic)")
+
+
 def _check_runs(where: str) -> int:
     """Read every run back; print one line per run; the number that fail."""
     from store.api import Store
+    from store.errors import SchemaError
 
     failed = 0
     try:
-        st = Store.open(where, create=False)
+        st = Store.open(where, create=False, upgrade=False)  # check writes nothing
+    except SchemaError as exc:  # an older schema: not damage, but not read by this hadim
+        typer.echo(f"  runs not read: {exc}")
+        return 0
     except Exception as exc:  # noqa: BLE001 — the report is the point: say why, do not raise
         typer.echo(f"  the run table cannot be read: {_reason(exc)}")
         return 1

@@ -8,8 +8,7 @@ import sqlite3
 import pytest
 from sqlalchemy import text
 
-from store import SCHEMA_VERSION, SchemaError, Store, StoreError, migrations
-from store.migrations import Migration
+from store import SCHEMA_VERSION, SchemaError, Store, StoreError
 
 
 def _files(path):
@@ -94,70 +93,6 @@ def test_newer_schema_refused(tmp_path):
     with pytest.raises(SchemaError, match="upgrade hadim"):
         Store.open(path)
     assert path.read_bytes() == before
-
-
-def test_older_schema_migrated_in_order(tmp_path, monkeypatch):
-    path = tmp_path / "s.db"
-    with Store.open(path) as old:
-        old.create_run(config={}, seed=1)
-    applied = []
-
-    def add_notes(conn):
-        applied.append("notes")
-        conn.execute(text("ALTER TABLE runs ADD COLUMN notes TEXT DEFAULT ''"))
-
-    def fill_notes(conn):
-        applied.append("fill")
-        conn.execute(text("UPDATE runs SET notes = 'migrated'"))
-
-    target = SCHEMA_VERSION + 2
-    monkeypatch.setattr(migrations, "SCHEMA_VERSION", target)
-    monkeypatch.setattr(
-        migrations,
-        "MIGRATIONS",
-        [
-            Migration(SCHEMA_VERSION + 1, "fill notes", fill_notes),
-            Migration(SCHEMA_VERSION, "add notes", add_notes),
-        ],
-    )
-    with Store.open(path) as upgraded:
-        assert upgraded.get_run("run-1").seed == 1
-    assert applied == ["notes", "fill"]
-    with sqlite3.connect(path) as conn:
-        version = conn.execute("SELECT value FROM meta WHERE key='schema_version'").fetchone()
-        notes = conn.execute("SELECT notes FROM runs").fetchone()
-    conn.close()
-    assert version == (str(target),) and notes == ("migrated",)
-    Store.open(path).close()  # already current: nothing applied again
-    assert applied == ["notes", "fill"]
-
-
-def test_failed_migration_rolls_back(tmp_path, monkeypatch):
-    path = tmp_path / "s.db"
-    Store.open(path).close()
-
-    def broken(conn):
-        conn.execute(text("ALTER TABLE runs ADD COLUMN half TEXT"))
-        raise RuntimeError("migration bug")
-
-    monkeypatch.setattr(migrations, "SCHEMA_VERSION", SCHEMA_VERSION + 1)
-    monkeypatch.setattr(migrations, "MIGRATIONS", [Migration(SCHEMA_VERSION, "x", broken)])
-    with pytest.raises(RuntimeError, match="migration bug"):
-        Store.open(path)
-    with sqlite3.connect(path) as conn:
-        columns = [row[1] for row in conn.execute("PRAGMA table_info(runs)")]
-        version = conn.execute("SELECT value FROM meta WHERE key='schema_version'").fetchone()
-    conn.close()
-    assert "half" not in columns and version == (str(SCHEMA_VERSION),)
-
-
-def test_missing_migration_refused(tmp_path, monkeypatch):
-    path = tmp_path / "s.db"
-    Store.open(path).close()
-    monkeypatch.setattr(migrations, "SCHEMA_VERSION", SCHEMA_VERSION + 1)
-    monkeypatch.setattr(migrations, "MIGRATIONS", [])
-    with pytest.raises(SchemaError, match="no migration from schema version"):
-        Store.open(path)
 
 
 def test_file_sqlite_pragmas(file_store):
