@@ -51,6 +51,8 @@ _DRIFT = 0.1
 """… or when any scale of its spaces has changed by more than this fraction since its build."""
 _CHUNK = 1 << 21
 """Elements per chunk of the brute-force distance pass (bounds its memory)."""
+_KEPT_ANSWERS = 16
+"""Answers of `infer` a model keeps for questions asked again (until its next `add`)."""
 _BUFFER_TREE = 48
 """Buffers of more rows than this are searched through a KD-tree of their own."""
 _SLACK = 2
@@ -257,6 +259,11 @@ class LocalLinearModel:
         self._data = np.empty((0, self._width))
         self._n = 0
         self._scale_cache: tuple[int, SpaceScale] | None = None
+        self._answers: dict[tuple, InverseResult] = {}
+        """Recent answers of `infer` by arguments, for the rows [0, `_answered_at`): the
+        planner asks the same question again from the same observation (a step retried,
+        the inverse answer of a trip's last step), and the model only changes by `add`."""
+        self._answered_at = 0
         n_spaces = len(self._dims)
         xc = np.arange(self.dx + self.dc)
         yc = np.concatenate([np.arange(self.dx + self.dc, self._width),
@@ -392,6 +399,22 @@ class LocalLinearModel:
         scored in `c`; without, in y alone, each candidate scored in its neighbour's context.
         """
         self._require_data()
+        key = (np.asarray(y_goal, dtype=np.float64).tobytes(),
+               None if c is None else np.asarray(c, dtype=np.float64).tobytes(), n_candidates)
+        if self._answered_at != self._n:
+            self._answers.clear()
+            self._answered_at = self._n
+        known = self._answers.get(key)
+        if known is None:
+            known = self._infer(y_goal, c, n_candidates)
+            if len(self._answers) >= _KEPT_ANSWERS:
+                self._answers.pop(next(iter(self._answers)))
+            self._answers[key] = known
+        return InverseResult(known.x.copy(), known.y_predicted.copy(), known.error,
+                             known.context.copy(), known.neighbour_index)
+
+    def _infer(self, y_goal: np.ndarray, c: np.ndarray | None, n_candidates: int | None
+               ) -> InverseResult:
         goal = self._rows(y_goal, self.dy, "y_goal")[0]
         k = min(n_candidates or self.k_inverse, self._n)
         ctx = self._contexts(c, 1) if c is not None and self.dc else None

@@ -76,3 +76,33 @@ def test_models_answer_alike_with_and_without_buffer_trees(monkeypatch) -> None:
     for got, want in zip(fast, plain, strict=True):
         for a, b in zip(got, want, strict=True):
             assert np.array_equal(a, b)
+
+
+def test_an_inverse_answer_asked_again_is_the_same_until_rows_are_added() -> None:
+    """`infer` keeps its recent answers: asked again, it answers as a model that never
+    answered before — even after the caller changed the arrays it was given — and after an
+    `add`, as a model that holds the new rows."""
+    rng = np.random.default_rng(11)
+    rows = [_rows(rng, 300), _rows(rng, 30)]
+
+    def fresh(batches: int) -> LocalLinearModel:
+        m = LocalLinearModel(2, 2, [2])
+        for batch in rows[:batches]:
+            m.add(*batch)
+        return m
+
+    def same(a, b) -> bool:
+        return (np.array_equal(a.x, b.x) and np.array_equal(a.y_predicted, b.y_predicted)
+                and a.error == b.error and np.array_equal(a.context, b.context)
+                and a.neighbour_index == b.neighbour_index)
+
+    model = fresh(1)
+    goal, c = np.array([0.3, -0.2]), np.array([0.1, 0.4])
+    first = model.infer(goal, c)
+    first.x[:] = 9.0                       # a caller's change must not reach the kept answer
+    first.context[:] = 9.0
+    assert same(model.infer(goal, c), fresh(1).infer(goal, c))
+    assert same(model.infer(goal), fresh(1).infer(goal))
+    model.add(*rows[1])
+    assert same(model.infer(goal, c), fresh(2).infer(goal, c))
+    assert not same(fresh(1).infer(goal, c), fresh(2).infer(goal, c))
