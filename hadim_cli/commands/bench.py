@@ -7,7 +7,7 @@ from typing import Annotated
 
 import typer
 
-from hadim_cli.commands.common import ConfigOption, JsonOption, SetOption
+from hadim_cli.commands.common import ConfigOption, JsonOption, SetOption, StoreOption
 from hadim_cli.config import load_config
 
 app = typer.Typer(help="Measure how fast the parts of hadim run.", no_args_is_help=True)
@@ -87,6 +87,55 @@ def train(
              if store else "")
     console.print(f"total {result.wall_s:.1f} s, {result.iterations_per_s:.1f} iterations/s"
                   f"{extra}")
+
+
+@app.command("eval")
+def eval_(
+    run: Annotated[str, typer.Argument(help="A learner run of the store, e.g. run-1.")],
+    task: Annotated[list[str] | None, typer.Option(
+        "--task", help="A task of configs/tasks/ (repeatable; default: the run's evaluation "
+        "tasks).")] = None,
+    at: Annotated[int | None, typer.Option("--at", min=0, help="Use the checkpoint at or "
+                                           "before this iteration (default: latest).")] = None,
+    store: StoreOption = None,
+    json_: JsonOption = False,
+) -> None:
+    """Wall and CPU time of evaluating a run's learner on each task (nothing stored)."""
+    from hadim_cli import runs
+    from hadim_cli.bench_eval import bench_eval
+    from hadim_cli.errors import HadimError
+    from hadim_cli.evaluation.tasks import load_task
+
+    for name in task or ():
+        load_task(name)  # an unknown task is refused before the learner is restored
+    with runs.open_store(store, create=False, writes=False) as st:
+        record = st.get_run(run)
+        if record.config.get("kind") == "baseline":
+            raise HadimError(f"run {run} is a baseline run: bench eval times the learner's "
+                             "planner")
+        if at is not None and at > record.iterations:
+            raise HadimError(f"--at {at} is beyond run {run}'s {record.iterations} iterations")
+        session = runs.restore_session(st, record, at)
+    tasks = tuple(task) if task else session.config.evaluation.tasks
+    result = bench_eval(session, run, tasks)
+    if json_:
+        typer.echo(json.dumps(result.to_dict()))
+        return
+    from rich.console import Console
+    from rich.table import Table
+
+    table = Table(title=f"eval: {run} at iteration {result.iteration}, "
+                  f"{result.affordances} affordances")
+    for col in ("task", "score", "points", "actions", "seconds", "CPU s", "CPU ms/action"):
+        table.add_column(col, justify="right")
+    for t in result.tasks:
+        table.add_row(t.task, f"{t.score:.3f}", str(t.points), str(t.actions),
+                      f"{t.seconds:.2f}", f"{t.cpu_seconds:.2f}",
+                      f"{1e3 * t.cpu_seconds / max(t.actions, 1):.1f}")
+    console = Console()
+    console.print(table)
+    console.print(f"total {result.seconds:.2f} s, {result.cpu_seconds:.2f} CPU s, "
+                  f"{result.ms_per_action:.1f} CPU ms per action")
 
 
 @app.command("env")

@@ -14,8 +14,13 @@ change of its output space). `LocalLinearModel` holds those rows and answers bot
 Each space is normalised by one scalar (`SpaceScale`), so that distances weigh spaces equally
 while the geometry inside a space is kept. Neighbour searches use a KD-tree (scipy's cKDTree:
 exact like scikit-learn's, with ~5× less overhead per call) built over the rows known at the
-last rebuild, plus a brute-force pass over the rows added since; an index is rebuilt by `add`
-(never by a query) when that buffer grows past max(64, 25 % of n) or when the scales have drifted.
+last rebuild, plus the rows added since (the *buffer*); an index is rebuilt by `add` (never by
+a query) when that buffer grows past max(64, 25 % of n) or when the scales have drifted. A
+buffer of more than `_BUFFER_TREE` rows is searched through a KD-tree of its own, built when a
+query finds it has grown (rows come in once per learning episode, and an evaluation adds none:
+one build serves every query until the next add); that tree only proposes candidates, whose
+distances are computed as a scan of the buffer computes them, so the answers are bit-identical
+to the scan (`_brute_knn`, kept as the reference and used for small buffers).
 Every local fit is vectorised over queries: one stacked `np.linalg.solve`. With fewer
 neighbours than unknowns the fit drops the context slopes, then all slopes (the mean).
 
@@ -46,6 +51,13 @@ _DRIFT = 0.1
 """… or when any scale of its spaces has changed by more than this fraction since its build."""
 _CHUNK = 1 << 21
 """Elements per chunk of the brute-force distance pass (bounds its memory)."""
+_KEPT_ANSWERS = 16
+"""Answers of `infer` a model keeps for questions asked again (until its next `add`)."""
+_BUFFER_TREE = 48
+"""Buffers of more rows than this are searched through a KD-tree of their own."""
+_SLACK = 2
+"""Extra candidates asked of a buffer's KD-tree: its distances may differ from the recomputed
+ones in the last bit, so that near-ties at the k-th place still resolve as the scan's."""
 
 _FORWARD, _INVERSE, _OUTCOME = "forward", "inverse", "outcome"
 _INDEXES = (_FORWARD, _INVERSE, _OUTCOME)
@@ -149,7 +161,9 @@ class _Index:
     checked: int = 0
     """Buffer size at the last check for drifting scales."""
     buffer: np.ndarray = field(default_factory=lambda: np.empty((0, 0)))
-    """Normalised rows [n_built, n_built + len) (a cache for the brute-force pass)."""
+    """Normalised rows [n_built, n_built + len) (a cache for the buffer's search)."""
+    buffer_tree: cKDTree | None = None
+    """A KD-tree over all of `buffer` (None: not built since the buffer last grew)."""
 
 
 @dataclass(frozen=True)
@@ -245,6 +259,11 @@ class LocalLinearModel:
         self._data = np.empty((0, self._width))
         self._n = 0
         self._scale_cache: tuple[int, SpaceScale] | None = None
+        self._answers: dict[tuple, InverseResult] = {}
+        """Recent answers of `infer` by arguments, for the rows [0, `_answered_at`): the
+        planner asks the same question again from the same observation (a step retried,
+        the inverse answer of a trip's last step), and the model only changes by `add`."""
+        self._answered_at = 0
         n_spaces = len(self._dims)
         xc = np.arange(self.dx + self.dc)
         yc = np.concatenate([np.arange(self.dx + self.dc, self._width),
@@ -380,6 +399,22 @@ class LocalLinearModel:
         scored in `c`; without, in y alone, each candidate scored in its neighbour's context.
         """
         self._require_data()
+        key = (np.asarray(y_goal, dtype=np.float64).tobytes(),
+               None if c is None else np.asarray(c, dtype=np.float64).tobytes(), n_candidates)
+        if self._answered_at != self._n:
+            self._answers.clear()
+            self._answered_at = self._n
+        known = self._answers.get(key)
+        if known is None:
+            known = self._infer(y_goal, c, n_candidates)
+            if len(self._answers) >= _KEPT_ANSWERS:
+                self._answers.pop(next(iter(self._answers)))
+            self._answers[key] = known
+        return InverseResult(known.x.copy(), known.y_predicted.copy(), known.error,
+                             known.context.copy(), known.neighbour_index)
+
+    def _infer(self, y_goal: np.ndarray, c: np.ndarray | None, n_candidates: int | None
+               ) -> InverseResult:
         goal = self._rows(y_goal, self.dy, "y_goal")[0]
         k = min(n_candidates or self.k_inverse, self._n)
         ctx = self._contexts(c, 1) if c is not None and self.dc else None
@@ -475,7 +510,13 @@ class LocalLinearModel:
         if index.n_built == self._n:
             return dist, nb
         buf = self._buffer(index, col_scale)
-        b_dist, b_nb = _brute_knn(zq, buf, min(k, buf.shape[0]))
+        k_buf = min(k, buf.shape[0])
+        if buf.shape[0] > _BUFFER_TREE:
+            if index.buffer_tree is None:
+                index.buffer_tree = cKDTree(buf)
+            b_dist, b_nb = _tree_knn(zq, buf, index.buffer_tree, k_buf)
+        else:
+            b_dist, b_nb = _brute_knn(zq, buf, k_buf)
         dist = np.concatenate([dist, b_dist], axis=1)
         nb = np.concatenate([nb, b_nb + index.n_built], axis=1)
         order = np.argsort(dist, axis=1, kind="stable")[:, :k]
@@ -488,6 +529,7 @@ class LocalLinearModel:
         if index.n_built + have < self._n:
             new = self._data[index.n_built + have:self._n][:, index.columns] / col_scale
             index.buffer = np.concatenate([index.buffer, new])
+            index.buffer_tree = None
         return index.buffer
 
     def _ensure(self, name: str) -> _Index:
@@ -511,6 +553,7 @@ class LocalLinearModel:
         pts = self._data[:n_rows][:, index.columns] / scale.per_column()[index.columns]
         index.tree = cKDTree(pts)
         index.buffer = np.empty((0, index.columns.size))
+        index.buffer_tree = None
         index.n_built, index.checked = n_rows, checked
 
     # ------------------------------------------------------------------ state
@@ -612,6 +655,35 @@ def _brute_knn(q: np.ndarray, pts: np.ndarray, k: int) -> tuple[np.ndarray, np.n
         order = np.argsort(d_part, axis=1, kind="stable")
         idx[lo:lo + step] = part[rows, order]
         dist[lo:lo + step] = np.sqrt(d_part[rows, order])
+    return dist, idx
+
+
+def _tree_knn(q: np.ndarray, pts: np.ndarray, tree: cKDTree, k: int
+              ) -> tuple[np.ndarray, np.ndarray]:
+    """What `_brute_knn(q, pts, k)` answers, bit for bit, with `tree` (over `pts`) proposing
+    the candidates: its k + `_SLACK` nearest, whose distances are then computed as
+    `_brute_knn` computes them. Rows at exactly equal distances (duplicated rows are common:
+    an object that did not move) come out of `_brute_knn` in the order its partition leaves
+    them, which only a scan of all rows reproduces: a query with such a tie among its k + 1
+    nearest candidates is answered by the scan."""
+    n_q = q.shape[0]
+    kc = min(k + _SLACK, pts.shape[0])
+    cand = tree.query(q, k=kc)[1].reshape(n_q, kc)
+    near = pts[cand]
+    if pts.strides[0] < pts.strides[1]:
+        # `pts` column-major (a buffer is: rows gathered by column), so `_brute_knn`'s
+        # differences are too, and einsum sums each row's squares in another order than over
+        # row-major ones: the candidates take the same layout, for the same roundings.
+        near = np.ascontiguousarray(near.transpose(0, 2, 1)).transpose(0, 2, 1)
+    diff = q[:, None, :] - near
+    d2 = np.einsum("qpd,qpd->qp", diff, diff)
+    order = np.argsort(d2, axis=1, kind="stable")[:, :k + 1]
+    rows = np.arange(n_q)[:, None]
+    d2, cand = d2[rows, order], cand[rows, order]
+    dist, idx = np.sqrt(d2[:, :k]), cand[:, :k]
+    tied = np.flatnonzero(np.any(d2[:, 1:] == d2[:, :-1], axis=1))
+    if tied.size:
+        dist[tied], idx[tied] = _brute_knn(q[tied], pts, k)
     return dist, idx
 
 

@@ -31,6 +31,8 @@ ROBOT_POSITION = RoleSpace(Role.ROBOT, Property.POSITION)
 ROBOT_HEADING = RoleSpace(Role.ROBOT, Property.HEADING)
 STALL_ACTIONS = 3
 """Actions a place is pursued without getting closer than ever before it is given up."""
+_KEPT_PREDICTIONS = 8
+"""Predictions the navigator keeps for observations it may be asked about again."""
 
 
 @dataclass(frozen=True)
@@ -115,6 +117,11 @@ class Navigator:
         self.config = config
         self.commands = command_grid(config.navigation_grid)
         self.motion = motion
+        self._predictions: dict[tuple, tuple[tuple, Prediction]] = {}
+        """Recent predictions by (observation, target, tool), each with the motion models it
+        came from: the planner often asks again from the same observation (a place given
+        up, the next one tried), and the models do not change between two of the learner's
+        adds (never during an evaluation)."""
         self._pursuits: dict[tuple, list[float]] = {}
         """Per place pursued lately: [fewest actions to go seen, actions since]."""
 
@@ -141,15 +148,30 @@ class Navigator:
 
     def predict(self, obs: np.ndarray, target: int = -1, tool: int = -1) -> Prediction | None:
         """Every candidate command's predicted pose, from the learned forward models."""
-        n = self.commands.shape[0]
-        position = self.reader.entity_position(obs, 0)
-        heading = self.reader.value_now(ROBOT_HEADING, obs)
         if self.motion is not None:
             shift, after = self.motion(obs, self.commands)
-            return self._prediction(position, heading, shift, after)
+            return self._prediction(self.reader.entity_position(obs, 0),
+                                    self.reader.value_now(ROBOT_HEADING, obs), shift, after)
         mover, turner = self.movers()
         if mover is None:
             return None
+        key = (obs.tobytes(), target, tool)
+        models = tuple((a.model, a.model.n, a.contexts) if a is not None else None
+                       for a in (mover, turner))
+        known = self._predictions.get(key)
+        if known is not None and known[0] == models:
+            return known[1]
+        pred = self._predict(obs, target, tool, mover, turner)
+        if len(self._predictions) >= _KEPT_PREDICTIONS:
+            self._predictions.pop(next(iter(self._predictions)))
+        self._predictions[key] = (models, pred)
+        return pred
+
+    def _predict(self, obs: np.ndarray, target: int, tool: int, mover: Affordance,
+                 turner: Affordance | None) -> Prediction:
+        n = self.commands.shape[0]
+        position = self.reader.entity_position(obs, 0)
+        heading = self.reader.value_now(ROBOT_HEADING, obs)
         c = self._context(mover, obs, target, tool)
         shift = mover.model.predict(self.commands, np.repeat(c[None], n, 0) if c.size else None)
         if turner is not None:

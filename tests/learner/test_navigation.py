@@ -165,3 +165,29 @@ def test_a_place_pursued_without_progress_is_given_up():
     assert sum(c is not None for c in chosen) <= 4
     nav.forget()  # a new goal attempt starts afresh
     assert nav.choose(robot.obs, place, []) is not None
+
+
+def _same(a, b) -> bool:
+    return all(np.array_equal(getattr(a, f), getattr(b, f))
+               for f in ("commands", "half", "end", "heading", "speed", "turn"))
+
+
+def test_a_prediction_is_kept_for_the_same_observation_until_the_models_change():
+    """The navigator answers a repeated question from what it kept, and what it kept is what
+    it would compute afresh; a row added to a motion model makes it compute again."""
+    rng = np.random.default_rng(3)
+    h = _learned_movers(rng, 300)
+    robot = Kinematic(0.2, -0.1, 0.7)
+    nav = Navigator(h, robot.reader, PlannerConfig())
+    first = nav.predict(robot.obs)
+    assert nav.predict(robot.obs.copy()) is first
+    assert _same(first, Navigator(h, robot.reader, PlannerConfig()).predict(robot.obs))
+    other = robot.obs.copy()
+    robot.set(np.array([0.2, -0.1]), np.array([0.0, 1.0]))
+    assert not _same(nav.predict(robot.obs), first)      # another observation
+    mover = nav.movers()[0].model
+    x, c, y = mover.data()
+    mover.add(x[:40] * 0.5, c[:40], y[:40] * 3.0)          # the model changed: not kept
+    again = nav.predict(other)
+    assert again is not first and not _same(again, first)
+    assert _same(again, Navigator(h, robot.reader, PlannerConfig()).predict(other))
