@@ -33,6 +33,9 @@ class Bug(NamedTuple):
 
 
 BUGS = (
+    Bug("navigator-heading-ignored", "hadim_cli/learner/navigation.py",
+        "direct = direct + line_angle(arrive, want) / turn", "direct = direct",
+        "tests/learner/test_pose_reaching.py"),
     Bug("scripted-no-steering", "scripts/scripted_controller.py",
         "STEERING = True", "STEERING = False",
         "tests/test_scripted_controller.py::test_the_tool_pushes_the_target_off_its_start"
