@@ -33,6 +33,9 @@ class Bug(NamedTuple):
 
 
 BUGS = (
+    Bug("push-step-unbounded", "hadim_cli/learner/planner.py",
+        "delta = gap if dist <= step else gap * (step / dist)", "delta = gap",
+        "tests/learner/test_line_pushing.py"),
     Bug("navigator-heading-ignored", "hadim_cli/learner/navigation.py",
         "direct = direct + line_angle(arrive, want) / turn", "direct = direct",
         "tests/learner/test_pose_reaching.py"),
