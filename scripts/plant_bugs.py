@@ -34,6 +34,16 @@ class Bug(NamedTuple):
 
 
 BUGS = (
+    Bug("push-step-unbounded", "hadim_cli/learner/planner.py",
+        "delta = gap if dist <= step else gap * (step / dist)", "delta = gap",
+        "tests/learner/test_line_pushing.py"),
+    Bug("navigator-heading-ignored", "hadim_cli/learner/navigation.py",
+        "direct = direct + line_angle(arrive, want) / turn", "direct = direct",
+        "tests/learner/test_pose_reaching.py"),
+    Bug("scripted-no-steering", "scripts/scripted_controller.py",
+        "STEERING = True", "STEERING = False",
+        "tests/test_scripted_controller.py::test_the_tool_pushes_the_target_off_its_start"
+        "_line_without_the_robot_touching_it"),
     Bug("competence-in-sample", "hadim_cli/learner/competence.py",
         "model.predict_loo(rows)", "model.predict(model.data()[0][rows], model.data()[1][rows])",
         f"{STEPS}::test_competence_is_scored_on_held_out_rows"),
