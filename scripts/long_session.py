@@ -170,6 +170,7 @@ class Record(NamedTuple):
     stamps: list[tuple[int, datetime]]
     evals: dict[int, dict[str, float]]
     samples: list[Sample]
+    hierarchy: list[tuple[int, int]]  # (iteration, |H|) at each episode's end
 
 
 def read_record(con: sqlite3.Connection, store: Path, name: str) -> Record:
@@ -188,7 +189,10 @@ def read_record(con: sqlite3.Connection, store: Path, name: str) -> Record:
     lines = log.read_text().splitlines() if log.exists() else []
     samples = [Sample(**{k: v for k, v in json.loads(x).items() if k in Sample._fields})
                for x in lines if x.strip()]
-    return Record(name, run_id, int(total), stamps, evals, samples)
+    hierarchy = [(int(it), int(n)) for it, n in con.execute(
+        "SELECT iteration, count(*) FROM affordance_stats WHERE run_id = ? GROUP BY iteration "
+        "ORDER BY iteration", (run_id,))]
+    return Record(name, run_id, int(total), stamps, evals, samples, hierarchy)
 
 
 def _wall_rate(r: Record, lo: int, hi: int) -> float | None:
@@ -266,25 +270,25 @@ def _table(rows: list[Block], file_bytes: int) -> None:
 
 
 def figure(r: Record, fine: list[Block], out: Path) -> None:
-    """Four panels against iterations: iterations per second (per block of `fine`: wall and
-    per CPU-second), the store's size (the file, sampled; the run's rows, per block), resident
-    memory (sampled), and the evaluation scores with the number of affordances."""
+    """Five panels against iterations: iterations per second (per block of `fine`: wall and per
+    CPU-second), the store's size (the file and its WAL, sampled; the run's rows, per block),
+    resident memory (sampled), the evaluation scores, and the number of affordances."""
     import matplotlib
 
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    fig, (rate, size, mem, score) = plt.subplots(4, 1, figsize=(8, 10), sharex=True)
+    fig, (rate, size, mem, score, count) = plt.subplots(
+        5, 1, figsize=(8, 11), sharex=True, gridspec_kw={"height_ratios": [3, 3, 2, 3, 1.5]})
     mid = [(b.start + b.stop) / 2 for b in fine]
     for key, label in (("iterations_per_s", "wall (shared machine)"),
-                       ("iterations_per_cpu_s", "per CPU-second")):
+                       ("iterations_per_cpu_s", "per CPU-second of the process")):
         y = [getattr(b, key) if getattr(b, key) is not None else float("nan") for b in fine]
         rate.plot(mid, y, marker=".", label=label)
     rate.set_ylabel("iterations / s")
-    rate.set_ylim(bottom=0)
     rate.legend()
-    its = [s.iterations for s in r.samples]
-    size.plot(its, [s.store_bytes / 1e6 for s in r.samples], label="file on disk (sampled)")
+    size.plot([s.iterations for s in r.samples], [s.store_bytes / 1e6 for s in r.samples],
+              label="file + WAL on disk (sampled)")
     size.plot([b.stop for b in fine], [b.stored_bytes / 1e6 for b in fine], ".",
               label="the run's rows")
     size.set_ylabel("store MB")
@@ -299,14 +303,15 @@ def figure(r: Record, fine: list[Block], out: Path) -> None:
         score.plot([i for i, _ in pts], [v for _, v in pts], marker="o", label=task)
     score.set_ylabel("evaluation score")
     score.set_ylim(-0.02, 1.02)
-    score.legend(loc="lower left")
-    count = score.twinx()
-    count.step([b.stop for b in fine], [b.affordances for b in fine], where="post",
-               color="grey", label="|H|")
-    count.set_ylabel("affordances |H|")
-    count.set_ylim(bottom=0)
-    score.set_xlabel("iteration")
-    for ax in (rate, size, mem, score):
+    score.legend(loc="lower right", fontsize="small")
+    count.step([it for it, _ in r.hierarchy], [n for _, n in r.hierarchy], where="post",
+               color="grey")
+    count.yaxis.get_major_locator().set_params(integer=True)
+    count.set_ylabel("|H|")
+    count.set_xlabel("iteration")
+    for ax in (rate, size, mem, count):
+        ax.set_ylim(bottom=0)
+    for ax in (rate, size, mem, score, count):
         ax.grid(alpha=0.3)
     fig.suptitle(f"long session {r.name!r}: {r.iterations} iterations")
     fig.tight_layout()

@@ -63,6 +63,13 @@ def test_the_report_gives_each_block_what_the_store_says(sampled, runner, monkey
     h = json.loads(runner.invoke(app, ["affordances", "long", "--json", "--store",
                                        str(sampled)]).stdout)
     assert blocks[-1]["affordances"] == len(h) > 0
+    con = long_session._connect(sampled)
+    try:
+        timeline = long_session.read_record(con, sampled, "long").hierarchy
+    finally:
+        con.close()
+    assert [it for it, _ in timeline] == list(range(50, 301, 50))  # one per episode
+    assert timeline[-1] == (300, len(h))
     stored = [b["stored_bytes"] for b in blocks]
     assert 0 < stored[0] < stored[1] < stored[2] < out["file_bytes"]
     assert all(b["bytes_per_iteration"] == b["stored_bytes"] / b["stop"] for b in blocks)
@@ -104,7 +111,7 @@ T0 = datetime(2026, 11, 24, 6, 0, 0)
 def _record(stamps, samples, evals) -> Record:
     return Record("r", 1, 600, [(it, T0 + timedelta(seconds=s)) for it, s in stamps],
                   {e: {"move-robot": 0.5} for e in evals},
-                  [Sample(0.0, it, 0, 0, cpu, pid) for pid, it, cpu in samples])
+                  [Sample(0.0, it, 0, 0, cpu, pid) for pid, it, cpu in samples], [])
 
 
 def test_wall_rates_leave_out_evaluations_and_pauses():
