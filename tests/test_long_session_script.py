@@ -97,6 +97,28 @@ def test_the_figure_is_drawn_beside_the_store_without_counting_as_the_store(
     assert long_session._file_bytes(sampled) == beside > 0
 
 
+def test_restore_is_timed_from_the_asked_checkpoint_and_writes_nothing(sampled, monkeypatch,
+                                                                       capsys):
+    def state() -> tuple:
+        con = long_session._connect(sampled)
+        try:
+            return tuple(con.execute(f"SELECT count(*) FROM {table}").fetchone()[0]
+                         for table in ("episodes", "checkpoints", "evaluations"))
+        finally:
+            con.close()
+
+    before = state()
+    monkeypatch.setattr(sys, "argv", ["long_session.py", "--store", str(sampled),
+                                      "--time-restore", "--at", "220", "--then", "60"])
+    long_session.main()
+    out = json.loads(capsys.readouterr().out)
+    assert out["iteration"] == 200  # the checkpoint at or before 220
+    assert out["then_iterations"] == 100  # whole episodes of 50
+    assert 0 < out["restore_s"] <= out["restore_to_first_iteration_s"]
+    assert out["then_cpu_s"] > 0 and out["iterations_per_cpu_s"] > 0
+    assert state() == before
+
+
 def test_a_report_of_a_run_not_in_the_store_is_one_error_line(sampled, monkeypatch):
     monkeypatch.setattr(sys, "argv", ["long_session.py", "--store", str(sampled), "--report",
                                       "--name", "nope"])
