@@ -22,8 +22,9 @@ of `--plot-block`, memory and the file's size as sampled, scores at each evaluat
 
 `--time-restore [--at T]` restores the run's checkpoint at or before T (the last if not given)
 as `hadim resume` does, without writing anything, and prints the seconds to import torch
-(which any hadim process pays once), to read the checkpoint and D and rebuild the learner, and
-from there to the first new iteration. With `--then N` it goes on for N iterations (whole
+(which any hadim process pays once), to read the checkpoint and D and rebuild the learner (and
+the CPU seconds of that, which a loaded machine changes little), and from there to the first
+new iteration. With `--then N` it goes on for N iterations (whole
 episodes, nothing stored) and prints their wall and CPU seconds: the cost per iteration at
 that point of the run, measured in CPU time, which a shared machine's load changes little.
 """
@@ -353,10 +354,10 @@ def time_restore(args: argparse.Namespace) -> None:
     from hadim_cli import runs
     from store import Store
 
-    t1 = time.perf_counter()
+    t1, c1 = time.perf_counter(), time.process_time()
     with Store.open(args.store, create=False) as store:
         session = runs.restore_session(store, store.get_run(args.name), args.at)
-    t2 = time.perf_counter()
+    t2, c2 = time.perf_counter(), time.process_time()
     first: list[float] = []
     step = session.world.step
 
@@ -372,7 +373,7 @@ def time_restore(args: argparse.Namespace) -> None:
     cpu, wall = time.process_time() - c0, time.perf_counter() - w0
     done = session.iteration - start
     print(json.dumps({"iteration": start, "import_torch_s": round(t1 - t0, 2),
-                      "restore_s": round(t2 - t1, 2),
+                      "restore_s": round(t2 - t1, 2), "restore_cpu_s": round(c2 - c1, 2),
                       "first_iteration_s": round(first[0] - t2, 2),
                       "restore_to_first_iteration_s": round(first[0] - t1, 2),
                       "then_iterations": done, "then_wall_s": round(wall, 2),

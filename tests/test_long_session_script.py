@@ -115,6 +115,7 @@ def test_restore_is_timed_from_the_asked_checkpoint_and_writes_nothing(sampled, 
     assert out["iteration"] == 200  # the checkpoint at or before 220
     assert out["then_iterations"] == 100  # whole episodes of 50
     assert 0 < out["restore_s"] <= out["restore_to_first_iteration_s"]
+    assert out["restore_cpu_s"] > 0
     assert out["then_cpu_s"] > 0 and out["iterations_per_cpu_s"] > 0
     assert state() == before
 
