@@ -2,6 +2,7 @@
 
     python scripts/long_session.py --store long.sqlite --iterations 100000   # run / resume
     python scripts/long_session.py --store long.sqlite --report              # the tables
+    python scripts/long_session.py --store long.sqlite --report --plot long.png   # + figure
 
 Runs the session named `--name` (default `long`, seed 0, default config, evaluation every
 `--eval-every` iterations) in a child process, resuming it if the store already has it, and
@@ -16,12 +17,14 @@ samples, leaving out intervals with an evaluation: on a shared machine wall-cloc
 follow the machine's load, CPU rates much less), the bytes the run has stored by the block's
 end (from the tables, so a fork or another run in the file does not count) and per iteration,
 the largest resident memory sampled in the block, the number of affordances, and the
-evaluation scores.
+evaluation scores. `--plot PNG` also draws them against iterations (rates and sizes per block
+of `--plot-block`, memory and the file's size as sampled, scores at each evaluation).
 
 `--time-restore [--at T]` restores the run's checkpoint at or before T (the last if not given)
 as `hadim resume` does, without writing anything, and prints the seconds to import torch
-(which any hadim process pays once), to read the checkpoint and D and rebuild the learner, and
-from there to the first new iteration. With `--then N` it goes on for N iterations (whole
+(which any hadim process pays once), to read the checkpoint and D and rebuild the learner (and
+the CPU seconds of that, which a loaded machine changes little), and from there to the first
+new iteration. With `--then N` it goes on for N iterations (whole
 episodes, nothing stored) and prints their wall and CPU seconds: the cost per iteration at
 that point of the run, measured in CPU time, which a shared machine's load changes little.
 """
@@ -38,14 +41,16 @@ import sys
 import time
 from datetime import datetime
 from pathlib import Path
+from typing import NamedTuple
 
 _GAP_S = 300.0
 """An episode longer than this spans a pause between two sessions: not timed."""
 
 
 def _file_bytes(path: Path) -> int:
-    return sum(p.stat().st_size for p in path.parent.glob(path.name + "*")
-               if p.is_file() and not p.name.endswith(".jsonl"))
+    """The SQLite file and its companions (not the samples or a figure written beside it)."""
+    files = (Path(str(path) + suffix) for suffix in ("", "-wal", "-shm", "-journal"))
+    return sum(p.stat().st_size for p in files if p.is_file())
 
 
 def _rss(pid: int) -> int:
@@ -94,6 +99,7 @@ def run(args: argparse.Namespace) -> None:
     else:
         cmd = [*cli, "train", "--name", name, "--seed", str(args.seed),
                "--iterations", str(args.iterations)]
+        cmd += [x for setting in args.set for x in ("--set", setting)]
     cmd += ["--eval-every", str(args.eval_every), "--store", str(store)]
     child = subprocess.Popen(["nice", "-n", str(args.nice), *cmd])
     log = Path(str(store) + ".samples.jsonl")
@@ -131,71 +137,213 @@ def _stored_bytes(con: sqlite3.Connection, run_id: int, upto: int) -> int:
     return sum(int(con.execute(sql, (run_id, upto)).fetchone()[0] or 0) for sql in q)
 
 
-def report(args: argparse.Namespace) -> None:
-    store, name, block = Path(args.store), args.name, args.block
-    con = _connect(store)
-    run_id, total = con.execute("SELECT id, iterations FROM runs WHERE name = ?",
-                                (name,)).fetchone()
+class Sample(NamedTuple):
+    """One line of `<store>.samples.jsonl`."""
+
+    time: float
+    iterations: int
+    store_bytes: int
+    rss_bytes: int
+    cpu_s: float
+    pid: int | None
+
+
+class Block(NamedTuple):
+    """What the report says of iterations [start, stop)."""
+
+    start: int
+    stop: int
+    iterations_per_s: float | None
+    iterations_per_cpu_s: float | None
+    stored_bytes: int
+    bytes_per_iteration: float
+    rss_bytes: int
+    affordances: int
+    scores: dict[str, float]
+
+
+class Record(NamedTuple):
+    """A long session as stored: checkpoint times, evaluations, samples."""
+
+    name: str
+    run_id: int
+    iterations: int
+    stamps: list[tuple[int, datetime]]
+    evals: dict[int, dict[str, float]]
+    samples: list[Sample]
+    hierarchy: list[tuple[int, int]]  # (iteration, |H|) at each episode's end
+
+
+def read_record(con: sqlite3.Connection, store: Path, name: str) -> Record:
+    row = con.execute("SELECT id, iterations FROM runs WHERE name = ?", (name,)).fetchone()
+    if row is None:
+        sys.exit(f"error: no run named {name!r} in {store}")
+    run_id, total = row
     stamps = [(it, datetime.fromisoformat(str(at))) for it, at in con.execute(
         "SELECT iteration, created_at FROM checkpoints WHERE run_id = ? ORDER BY iteration",
         (run_id,))]
-    evals = {}
+    evals: dict[int, dict[str, float]] = {}
     for it, task, score in con.execute(
             "SELECT iteration, task, score FROM evaluations WHERE run_id = ?", (run_id,)):
         evals.setdefault(it, {})[task] = score
     log = Path(str(store) + ".samples.jsonl")
-    samples = [json.loads(line) for line in log.read_text().splitlines()] if log.exists() else []
-    edges = sorted({*range(0, total + 1, block), total})
-    pairs = list(zip(edges, edges[1:], strict=False))
-    extra = args.extra_blocks
-    pairs += [(lo, hi) for lo, hi in zip(extra[::2], extra[1::2], strict=False) if hi <= total]
+    lines = log.read_text().splitlines() if log.exists() else []
+    samples = [Sample(**{k: v for k, v in json.loads(x).items() if k in Sample._fields})
+               for x in lines if x.strip()]
+    hierarchy = [(int(it), int(n)) for it, n in con.execute(
+        "SELECT iteration, count(*) FROM affordance_stats WHERE run_id = ? GROUP BY iteration "
+        "ORDER BY iteration", (run_id,))]
+    return Record(name, run_id, int(total), stamps, evals, samples, hierarchy)
+
+
+def _wall_rate(r: Record, lo: int, hi: int) -> float | None:
+    """Iterations per second between checkpoints in [lo, hi], without evaluations or pauses."""
+    secs, its = 0.0, 0
+    for (i0, t0), (i1, t1) in zip(r.stamps, r.stamps[1:], strict=False):
+        if lo <= i0 and i1 <= hi:
+            dt = (t1 - t0).total_seconds()
+            if dt < _GAP_S and not any(i0 <= e < i1 for e in r.evals):
+                secs, its = secs + dt, its + (i1 - i0)
+    return its / secs if secs else None
+
+
+def _progress(samples: list[Sample]) -> list[Sample]:
+    """The samples at which a process's stored iterations had moved since its previous sample:
+    between two of them, its CPU went to those iterations (and to an evaluation, if one ran).
+    A process's first sample, before its first new iteration, is left out: that is its start
+    (imports, restore)."""
+    last: dict[int | None, int] = {}
+    out = []
+    for x in samples:
+        if x.pid in last and x.iterations > last[x.pid]:
+            out.append(x)
+        last[x.pid] = x.iterations
+    return out
+
+
+def _cpu_rate(r: Record, lo: int, hi: int) -> float | None:
+    """Iterations per CPU-second of the training process over [lo, hi]: the intervals between
+    progress samples of one process whose middle falls in the block, leaving out those next to
+    an evaluation (it runs right after its iteration is stored)."""
+    cpu, its = 0.0, 0
+    moved = _progress(r.samples)
+    for a, b in zip(moved, moved[1:], strict=False):
+        evaluated = any(a.iterations <= e <= b.iterations for e in r.evals)
+        if a.pid == b.pid and lo <= (a.iterations + b.iterations) / 2 < hi and not evaluated:
+            cpu, its = cpu + b.cpu_s - a.cpu_s, its + b.iterations - a.iterations
+    return its / cpu if cpu > 0 else None
+
+
+def blocks(con: sqlite3.Connection, r: Record, pairs: list[tuple[int, int]]) -> list[Block]:
     rows = []
     for lo, hi in pairs:
-        secs, its = 0.0, 0
-        for (i0, t0), (i1, t1) in zip(stamps, stamps[1:], strict=False):
-            if lo <= i0 and i1 <= hi:
-                dt = (t1 - t0).total_seconds()
-                if dt < _GAP_S and not any(i0 <= e < i1 for e in evals):
-                    secs, its = secs + dt, its + (i1 - i0)
-        rss = max((s["rss_bytes"] for s in samples if lo < s["iterations"] <= hi), default=0)
-        cpu, cpu_its = 0.0, 0
-        started: dict[int, int] = {}  # pid → iteration it resumed at: its restore is not timed
-        for x in samples:
-            started.setdefault(x.get("pid"), x["iterations"])
-        for a, b in zip(samples, samples[1:], strict=False):
-            same = a.get("pid") is not None and a.get("pid") == b.get("pid") \
-                and a["iterations"] > started[a["pid"]]
-            if same and lo <= a["iterations"] and b["iterations"] <= hi \
-                    and not any(a["iterations"] <= e < b["iterations"] or e == a["iterations"]
-                                for e in evals):
-                cpu, cpu_its = cpu + b["cpu_s"] - a["cpu_s"], cpu_its + b["iterations"] \
-                    - a["iterations"]
-        n_aff = con.execute("SELECT count(*) FROM affordance_stats WHERE run_id = ? AND "
-                            "iteration = (SELECT max(iteration) FROM affordance_stats WHERE "
-                            "run_id = ? AND iteration <= ?)", (run_id, run_id, hi)).fetchone()[0]
-        stored = _stored_bytes(con, run_id, hi)
-        rows.append({"start": lo, "stop": hi, "iterations_per_s": its / secs if secs else None,
-                     "iterations_per_cpu_s": cpu_its / cpu if cpu > 0 else None,
-                     "stored_bytes": stored, "bytes_per_iteration": stored / max(hi, 1),
-                     "rss_bytes": rss, "affordances": n_aff, "scores": evals.get(hi, {})})
-    con.close()
-    if args.json:
-        print(json.dumps({"run": name, "iterations": total, "file_bytes": _file_bytes(store),
-                          "blocks": rows}))
-        return
+        rss = max((s.rss_bytes for s in r.samples if lo < s.iterations <= hi), default=0)
+        (n_aff,) = con.execute(
+            "SELECT count(*) FROM affordance_stats WHERE run_id = ? AND iteration = (SELECT "
+            "max(iteration) FROM affordance_stats WHERE run_id = ? AND iteration <= ?)",
+            (r.run_id, r.run_id, hi)).fetchone()
+        stored = _stored_bytes(con, r.run_id, hi)
+        rows.append(Block(lo, hi, _wall_rate(r, lo, hi), _cpu_rate(r, lo, hi), stored,
+                          stored / max(hi, 1), rss, int(n_aff), r.evals.get(hi, {})))
+    return rows
+
+
+def _edges(total: int, block: int) -> list[tuple[int, int]]:
+    edges = sorted({*range(0, total + 1, block), total})
+    return list(zip(edges, edges[1:], strict=False))
+
+
+_TASKS = ("move-robot", "push-object", "push-with-tool")
+
+
+def _table(rows: list[Block], file_bytes: int) -> None:
     print("| iterations | it/s (wall) | it/CPU-s | stored MB | bytes/it | RSS MB | H | "
           "move / push / tool |")
     print("|---|---|---|---|---|---|---|---|")
-    for r in rows:
-        s = r["scores"]
-        scores = " / ".join(f"{s[t]:.3f}" for t in ("move-robot", "push-object",
-                                                     "push-with-tool") if t in s) or "–"
-        ips = f"{r['iterations_per_s']:.1f}" if r["iterations_per_s"] else "–"
-        cps = f"{r['iterations_per_cpu_s']:.1f}" if r["iterations_per_cpu_s"] else "–"
-        print(f"| {r['start']}–{r['stop']} | {ips} | {cps} | {r['stored_bytes'] / 1e6:.1f} | "
-              f"{r['bytes_per_iteration']:.0f} | {r['rss_bytes'] / 1e6:.0f} | "
-              f"{r['affordances']} | {scores} |")
-    print(f"file on disk: {_file_bytes(store) / 1e6:.1f} MB")
+    for b in rows:
+        scores = " / ".join(f"{b.scores[t]:.3f}" for t in _TASKS if t in b.scores) or "–"
+        ips = f"{b.iterations_per_s:.1f}" if b.iterations_per_s else "–"
+        cps = f"{b.iterations_per_cpu_s:.1f}" if b.iterations_per_cpu_s else "–"
+        print(f"| {b.start}–{b.stop} | {ips} | {cps} | {b.stored_bytes / 1e6:.1f} | "
+              f"{b.bytes_per_iteration:.0f} | {b.rss_bytes / 1e6:.0f} | "
+              f"{b.affordances} | {scores} |")
+    print(f"file on disk: {file_bytes / 1e6:.1f} MB")
+
+
+def figure(r: Record, fine: list[Block], out: Path) -> None:
+    """Five panels against iterations: iterations per second (per block of `fine`: wall and per
+    CPU-second), the store's size (the file and its WAL, sampled; the run's rows, per block),
+    resident memory (sampled), the evaluation scores, and the number of affordances."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    fig, (rate, size, mem, score, count) = plt.subplots(
+        5, 1, figsize=(8, 11), sharex=True, gridspec_kw={"height_ratios": [3, 3, 2, 3, 1.5]})
+    mid = [(b.start + b.stop) / 2 for b in fine]
+    for key, label in (("iterations_per_s", "wall (shared machine)"),
+                       ("iterations_per_cpu_s", "per CPU-second of the process")):
+        y = [getattr(b, key) if getattr(b, key) is not None else float("nan") for b in fine]
+        rate.plot(mid, y, marker=".", label=label)
+    rate.set_ylabel("iterations / s")
+    rate.legend()
+    size.plot([s.iterations for s in r.samples], [s.store_bytes / 1e6 for s in r.samples],
+              label="file + WAL on disk (sampled)")
+    size.plot([b.stop for b in fine], [b.stored_bytes / 1e6 for b in fine], ".",
+              label="the run's rows")
+    size.set_ylabel("store MB")
+    size.legend()
+    for pid in dict.fromkeys(s.pid for s in r.samples):  # one line per process
+        run = [s for s in _progress(r.samples) if s.pid == pid]
+        mem.plot([s.iterations for s in run], [s.rss_bytes / 1e6 for s in run], color="C0")
+    mem.set_ylabel("resident MB")
+    at = sorted(r.evals)
+    for task in _TASKS:
+        pts = [(i, r.evals[i][task]) for i in at if task in r.evals[i]]
+        score.plot([i for i, _ in pts], [v for _, v in pts], marker="o", label=task)
+    score.set_ylabel("evaluation score")
+    score.set_ylim(-0.02, 1.02)
+    score.legend(loc="lower right", fontsize="small")
+    count.step([it for it, _ in r.hierarchy], [n for _, n in r.hierarchy], where="post",
+               color="grey")
+    count.yaxis.get_major_locator().set_params(integer=True)
+    count.set_ylabel("|H|")
+    count.set_xlabel("iteration")
+    for ax in (rate, size, mem, count):
+        ax.set_ylim(bottom=0)
+    for ax in (rate, size, mem, score, count):
+        ax.grid(alpha=0.3)
+    fig.suptitle(f"long session {r.name!r}: {r.iterations} iterations")
+    fig.tight_layout()
+    try:
+        fig.savefig(out, dpi=110)
+    finally:
+        plt.close(fig)
+
+
+def report(args: argparse.Namespace) -> None:
+    store = Path(args.store)
+    if not store.is_file():
+        sys.exit(f"error: no store at {store}")
+    con = _connect(store)
+    try:
+        r = read_record(con, store, args.name)
+        extra = args.extra_blocks
+        pairs = _edges(r.iterations, args.block) + [
+            (lo, hi) for lo, hi in zip(extra[::2], extra[1::2], strict=False)
+            if hi <= r.iterations]
+        rows = blocks(con, r, pairs)
+        if args.plot:
+            figure(r, blocks(con, r, _edges(r.iterations, args.plot_block)), Path(args.plot))
+    finally:
+        con.close()
+    if args.json:
+        print(json.dumps({"run": r.name, "iterations": r.iterations,
+                          "file_bytes": _file_bytes(store),
+                          "blocks": [b._asdict() for b in rows]}))
+    else:
+        _table(rows, _file_bytes(store))
 
 
 def time_restore(args: argparse.Namespace) -> None:
@@ -206,10 +354,10 @@ def time_restore(args: argparse.Namespace) -> None:
     from hadim_cli import runs
     from store import Store
 
-    t1 = time.perf_counter()
+    t1, c1 = time.perf_counter(), time.process_time()
     with Store.open(args.store, create=False) as store:
         session = runs.restore_session(store, store.get_run(args.name), args.at)
-    t2 = time.perf_counter()
+    t2, c2 = time.perf_counter(), time.process_time()
     first: list[float] = []
     step = session.world.step
 
@@ -225,7 +373,7 @@ def time_restore(args: argparse.Namespace) -> None:
     cpu, wall = time.process_time() - c0, time.perf_counter() - w0
     done = session.iteration - start
     print(json.dumps({"iteration": start, "import_torch_s": round(t1 - t0, 2),
-                      "restore_s": round(t2 - t1, 2),
+                      "restore_s": round(t2 - t1, 2), "restore_cpu_s": round(c2 - c1, 2),
                       "first_iteration_s": round(first[0] - t2, 2),
                       "restore_to_first_iteration_s": round(first[0] - t1, 2),
                       "then_iterations": done, "then_wall_s": round(wall, 2),
@@ -242,11 +390,17 @@ def main() -> None:
     p.add_argument("--eval-every", type=int, default=5000)
     p.add_argument("--sample-every", type=float, default=20.0)
     p.add_argument("--nice", type=int, default=10)
+    p.add_argument("--set", action="append", default=[], metavar="SECTION.KEY=VALUE",
+                   help="a config override of a new session (a resumed one keeps its config)")
     p.add_argument("--report", action="store_true")
     p.add_argument("--block", type=int, default=5000)
     p.add_argument("--extra-blocks", type=int, nargs="*", default=[3500, 4000, 45000, 50000],
                    help="more blocks to report, as start stop pairs")
     p.add_argument("--json", action="store_true")
+    p.add_argument("--plot", default=None, metavar="PNG",
+                   help="with --report: also draw the figure (docs/performance.md)")
+    p.add_argument("--plot-block", type=int, default=1000,
+                   help="the figure's rates and sizes per block of this many iterations")
     p.add_argument("--time-restore", action="store_true")
     p.add_argument("--at", type=int, default=None)
     p.add_argument("--then", type=int, default=0)
