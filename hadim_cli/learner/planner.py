@@ -468,7 +468,7 @@ class Planner:
         if b.avoid >= 0:
             # Never closer than the margin (not even going round it): the motion model's
             # errors near contact are those that touch the target.
-            margin = robot_r + self.reader.entity_radius(obs, b.avoid) + self.pc.avoid_margin
+            margin = self._avoid_distance(obs, b)
             out.append(Keepout(b.avoid, margin, margin))
         if near >= 0 and near != b.avoid and place is not None:
             centre = self.reader.entity_position(obs, near)
@@ -535,9 +535,14 @@ class Planner:
         shift = mover.model.predict(action[None], c[None] if c.size else None)[0]
         robot = self.reader.entity_position(obs, 0)
         other = self.reader.entity_position(obs, b.avoid)
-        reach = (self.reader.entity_radius(obs, 0) + self.reader.entity_radius(obs, b.avoid)
-                 + self.pc.avoid_margin)
+        reach = self._avoid_distance(obs, b)
         return any(np.linalg.norm(robot + f * shift - other) <= reach for f in (0.5, 1.0))
+
+    def _avoid_distance(self, obs: np.ndarray, b: Binding) -> float:
+        """The distance between centres the robot keeps from the entity `b` says to avoid:
+        touching, plus `avoid_margin`."""
+        return (self.reader.entity_radius(obs, 0) + self.reader.entity_radius(obs, b.avoid)
+                + self.pc.avoid_margin)
 
     # ------------------------------------------------------------------ reaching contexts
     def _reach_context(self, aff: Affordance, b: Binding, needed: np.ndarray,
@@ -574,12 +579,10 @@ class Planner:
         where it would touch the entity it must avoid (a place behind a tool that lies in
         the target: going for it touched the target)."""
         used = 0
-        if driven == ROBOT_POSITION and b.avoid >= 0:
-            obs = actuator.obs
-            clear = (self.reader.entity_radius(obs, 0) + self.reader.entity_radius(obs, b.avoid)
-                     + self.pc.avoid_margin)
-            if np.linalg.norm(goal - self.reader.entity_position(obs, b.avoid)) < clear:
-                return -1
+        if driven == ROBOT_POSITION and b.avoid >= 0 and (
+                np.linalg.norm(goal - self.reader.entity_position(actuator.obs, b.avoid))
+                < self._avoid_distance(actuator.obs, b)):
+            return -1
         target_entity = sub_b.target if driven.role is not Role.ROBOT else -1
         waypoints = self._waypoints(driven, goal, actuator.obs, b, target_entity)
         space = aff.contexts[i]

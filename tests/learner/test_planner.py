@@ -114,23 +114,9 @@ def test_the_planner_refuses_an_action_that_would_touch_what_it_must_avoid():
     """While a tool moves the target, the robot's own motion model screens each action: one
     predicted to bring the robot into contact with the target is not executed."""
     from hadim_cli.learner.planner import Binding
-    from hadim_cli.learner.spaces import ACTION, SpaceReader
-    from hadim_cli.world.layout import LayoutBounds, ObservationLayout, Property
 
-    layout = ObservationLayout.build(2, 4, LayoutBounds(2, 2, 1.5, 0.25, 0.6))
-    obs = np.zeros(layout.size)
-    obs[layout.space("robot", Property.RADIUS).slice] = 0.15
-    obs[layout.space("obj1", Property.RADIUS).slice] = 0.12
+    planner, obs, layout = _avoid_scene()
     obs[layout.space("obj1", Property.POSITION).slice] = [0.4, 0.0]
-    obs[layout.space("obj2", Property.POSITION).slice] = [-1.0, 1.0]
-    actions = np.random.default_rng(1).uniform(-1, 1, (200, 2))
-    model = LocalLinearModel(2, 2)
-    model.add(actions, None, 0.15 * actions)  # a robot that moves 0.15 m per unit of action
-    mover = SimpleNamespace(id=0, input=ACTION, output=ROBOT_POSITION, contexts=(),
-                            model=model, has_tool=False, competence=1.0)
-    hierarchy = SimpleNamespace(controllers=lambda space: [mover] if space == ROBOT_POSITION
-                                else [])
-    planner = Planner(hierarchy, SpaceReader(layout), load_config().learner)
     towards, away = np.array([1.0, 0.0]), np.array([-1.0, 0.0])
     assert planner.foresees_contact(Binding(target=2, avoid=1), towards, obs)
     assert not planner.foresees_contact(Binding(target=2, avoid=1), away, obs)
