@@ -257,8 +257,9 @@ def plot(
     log_x: Annotated[bool, typer.Option("--log-x", help="Iterations on a log axis.")] = False,
     store: StoreOption = None,
 ) -> None:
-    """Draw stored evaluation scores over iterations: one run (paper Fig. 2), or several on
-    one figure, one panel per task, mean ± std per algorithm and reward (paper Fig. 5)."""
+    """Draw stored evaluation scores over iterations: one run, or several (paper Fig. 2, 5).
+
+    One panel per task; several runs are drawn as mean ± std per algorithm and reward."""
     from hadim_cli import runs
     from hadim_cli.plots import comparison_figure, competence_figure
 

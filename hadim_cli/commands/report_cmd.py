@@ -21,8 +21,10 @@ def report(
         "spread over the evaluated ones).")] = None,
     store: StoreOption = None,
 ) -> None:
-    """Competence curves per config, affordance timelines, the per-seed H table with p_A, and
-    summary.json, from a sweep's runs; prints the files written."""
+    """The tables and figures of docs/results.md from a sweep's runs; prints the files.
+
+    Competence curves per config, affordance timelines, the per-seed H table with p_A, and
+    summary.json."""
     from hadim_cli import runs
     from hadim_cli.report.write import write_report
 

@@ -64,8 +64,10 @@ def sweep(
     ] = "discrete",
     store: StoreOption = None,
 ) -> None:
-    """Run every (config, grid value, seed) — and with --algo every (algorithm, task, reward,
-    seed) of the RL baselines — as a run of the store, in parallel on Ray.
+    """Run a grid of sessions (configs × grid values × seeds, or RL baselines) on Ray.
+
+    Every (config, grid value, seed) — and with --algo every (algorithm, task, reward, seed)
+    of the RL baselines — is a run of the store, run in parallel on Ray.
 
     Re-running the same command resumes unfinished runs and skips finished ones. Ctrl-C
     stops every run after its current episode (checkpointed); a second Ctrl-C aborts."""
