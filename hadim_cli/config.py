@@ -170,7 +170,12 @@ class LearnerConfig:
     tau_modification: float = 0.3
     """Competence a context change needs to be kept (paper τ_modification)."""
     context_gain: float = 0.1
-    """A context change must also raise competence by at least this much."""
+    """A context change must also raise competence by at least this much (half of it for a
+    replacement, tested on one held-out split; see `context_splits`)."""
+    context_splits: int = 5
+    """Held-out splits on which a replacement of a context that falls short of half
+    `context_gain` on the first is tested again: it is made when its gain, paired split by
+    split, exceeds twice its standard error. 1: never (runs stored without this key)."""
     match_tolerance: float = 0.05
     """New data match an affordance if its competence drops by less than this."""
     context_review_every: int = 5
@@ -240,7 +245,8 @@ class LearnerConfig:
             _check(0.0 <= value <= 1.0, f"learner.{name}", "must be in [0, 1]", value)
         for name in ("random_sequence_length", "k_forward", "k_inverse", "goal_budget",
                      "subgoal_budget", "interest_window", "classifier_hidden",
-                     "classifier_steps", "deletion_patience", "context_review_every"):
+                     "classifier_steps", "deletion_patience", "context_review_every",
+                     "context_splits"):
             value = getattr(self, name)
             _check(value >= 1, f"learner.{name}", "must be >= 1", value)
         _check(self.interest_max_goals >= 2, "learner.interest_max_goals", "must be >= 2",
@@ -486,7 +492,7 @@ def config_from_dict(values: Mapping[str, Any]) -> Config:
 
 
 LEGACY_DEFAULTS: dict[str, dict[str, Any]] = {
-    "learner": {"surface_relations": False, "relation_frames": False},
+    "learner": {"surface_relations": False, "relation_frames": False, "context_splits": 1},
     "planner": {"navigation": False, "steer": False},
 }
 """Keys added after runs were first stored, with the value that reproduces what a run stored

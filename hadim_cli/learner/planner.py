@@ -460,9 +460,12 @@ class Planner:
         return self.pc.navigation and self.navigator.available()
 
     def _keepouts(self, b: Binding, obs: np.ndarray, near: int = -1,
-                  place: np.ndarray | None = None) -> list[Keepout]:
+                  route: list[Place] | None = None) -> list[Keepout]:
         """The entity `b` says to avoid, with `avoid_margin`; and `near`, the object a place is
-        taken next to, kept at contact distance but never further than the place itself."""
+        taken next to, kept at contact distance but never further than any place of the
+        `route` (a detour round the entity to avoid may pass closer to `near` than the last
+        place: a keep-out beyond that waypoint left the robot turning back and forth, every
+        way to it refused)."""
         robot_r = self.reader.entity_radius(obs, 0)
         out = []
         if b.avoid >= 0:
@@ -470,11 +473,11 @@ class Planner:
             # errors near contact are those that touch the target.
             margin = self._avoid_distance(obs, b)
             out.append(Keepout(b.avoid, margin, margin))
-        if near >= 0 and near != b.avoid and place is not None:
+        if near >= 0 and near != b.avoid and route:
             centre = self.reader.entity_position(obs, near)
             contact = robot_r + self.reader.entity_radius(obs, near) + CONTACT_MARGIN
-            out.append(Keepout(near, min(contact, float(np.linalg.norm(place - centre))
-                                         - 0.005)))
+            closest = min(float(np.linalg.norm(p.position - centre)) for p in route)
+            out.append(Keepout(near, min(contact, closest - 0.005)))
         return out
 
     def navigate(self, places: list[Place], b: Binding, actuator: Actuator, budget: int,
@@ -485,15 +488,15 @@ class Planner:
         for place in places:
             self.stack.append(Pursuit("navigate robot.position", place.position, b))
             try:
-                used = self._drive(place, places[-1], b, actuator, budget, near, used)
+                used = self._drive(place, places, b, actuator, budget, near, used)
             finally:
                 self.stack.pop()
         return used if used > 0 else -1
 
-    def _drive(self, place: Place, last: Place, b: Binding, actuator: Actuator, budget: int,
-               near: int, used: int) -> int:
+    def _drive(self, place: Place, route: list[Place], b: Binding, actuator: Actuator,
+               budget: int, near: int, used: int) -> int:
         while used < budget and not actuator.exhausted:
-            keep = self._keepouts(b, actuator.obs, near, last.position)
+            keep = self._keepouts(b, actuator.obs, near, route)
             action = self.navigator.choose(actuator.obs, place, keep, b.target, b.tool)
             if action is None:
                 break
