@@ -694,4 +694,33 @@ class Planner:
                 continue
             if first is None or s < first[0]:
                 first = (s, centre, clearance)
-        return None if first is None else (first[1], first[2])
+        if first is None:
+            return None
+        return self._cluster(first[1], first[2], obs, obstacles, mover_radius)
+
+    def _cluster(self, centre: np.ndarray, clearance: float, obs: np.ndarray,
+                 obstacles: list[int], mover_radius: float) -> tuple[np.ndarray, float]:
+        """The disc (centre, clearance) round an obstacle and every other whose clearance
+        overlaps it, one after another: no way passes between them, so a detour goes round
+        them all. Round the target alone, a detour led between the target and a tool
+        against it, to a waypoint inside the tool."""
+        members = {tuple(np.round(centre, 9))}
+        grown = True
+        while grown:
+            grown = False
+            for e in obstacles:
+                c = self.reader.entity_position(obs, e)
+                key = tuple(np.round(c, 9))
+                if key in members:
+                    continue
+                r = self.reader.entity_radius(obs, e) + mover_radius + self.pc.approach_margin
+                d = float(np.linalg.norm(c - centre))
+                if d >= clearance + r:
+                    continue
+                members.add(key)
+                grown = True
+                if d + r > clearance:  # the smallest disc holding both
+                    new = 0.5 * (d + r + clearance)
+                    centre = centre + (c - centre) / max(d, 1e-12) * (new - clearance)
+                    clearance = new
+        return centre, clearance

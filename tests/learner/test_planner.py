@@ -11,7 +11,7 @@ from hadim_cli.learner.adaptation import required_gain
 from hadim_cli.learner.frames import FramedModel, relation_frame
 from hadim_cli.learner.hierarchy import Hierarchy
 from hadim_cli.learner.models import LocalLinearModel
-from hadim_cli.learner.planner import ROBOT_POSITION, Planner
+from hadim_cli.learner.planner import ROBOT_POSITION, Binding, Planner
 from hadim_cli.learner.spaces import Property, Role, RoleSpace
 
 TARGET_ROBOT = RoleSpace(Role.TARGET, Property.POSITION, Role.ROBOT)
@@ -402,3 +402,20 @@ def test_a_roughly_aligned_level_pushes_on_and_steers_back_to_the_needed_relatio
     calls.clear()
     planner._one_step(aff, b, np.array([0.1, 0.0]), actuator, 80, 0)
     assert calls[0][0] == "trip"
+
+
+def test_a_detour_goes_round_objects_that_leave_no_way_between_them():
+    """A tool lying against the target: the way from one side of the pair to the other goes
+    round both. Round the target alone, a waypoint fell inside the tool (the robot turned
+    back and forth at it, every way there refused)."""
+    planner, obs, layout = _avoid_scene()
+    obs[layout.space("obj2", Property.POSITION).slice] = [0.38, 0.0]  # against obj1 (0.6, 0)
+    obs[layout.space("robot", Property.POSITION).slice] = [0.5, 0.45]
+    goal = np.array([0.2, -0.15])
+    points = planner._waypoints(ROBOT_POSITION, goal, obs, Binding(target=2, avoid=1), -1)
+    assert len(points) > 1
+    robot_r = 0.15
+    for entity, radius in ((1, 0.12), (2, 0.1)):
+        centre = obs[layout.space(f"obj{entity}", Property.POSITION).slice]
+        for w in points[:-1]:
+            assert np.linalg.norm(w - centre) >= radius + robot_r + planner.pc.approach_margin
