@@ -94,6 +94,42 @@ def test_a_context_that_does_not_earn_its_gain_is_not_added():
     assert aff.contexts in ((ROBOT_LIDAR,), ())  # replacing it needs 0.45: removing is free
 
 
+@pytest.mark.parametrize(("gains", "splits", "replaced"), [
+    ((0.03, 0.032, 0.028, 0.031, 0.029), 5, True),  # better on every split, short of 0.05
+    ((0.03, -0.05, 0.08, -0.04, 0.06), 5, False),   # better on the first split by chance
+    ((0.03, 0.032, 0.028, 0.031, 0.029), 1, False),  # runs stored before: 0.05 on one split
+])
+def test_a_replacement_short_of_the_margin_is_made_when_it_holds_on_every_split(
+        gains, splits, replaced, monkeypatch):
+    """A replacement that beats the current context by less than half `context_gain` on one
+    held-out split is tested on `context_splits` splits, paired: made when its mean gain is
+    beyond twice its standard error (a tool affordance kept the robot's relation to the
+    target where the tool's predicted better on every split). Each split shifts both scores
+    alike (±0.1): only a paired comparison sees the gain."""
+    room = Room(context_splits=splits, context_gain=0.1)
+    t = room.moves(np.random.default_rng(0), 200)
+    aff = room.affordance(t, (ROBOT_LIDAR,))
+    splits_seen: list[int] = []
+
+    def trial(inp, out, contexts, rows, rng):
+        split = rng.bit_generator.state["state"]["state"] % (1 << 32)  # same seed, same split
+        if split not in splits_seen:
+            splits_seen.append(split)
+        shift = np.random.default_rng(split).normal(0, 0.1)
+        if contexts == (ROBOT_HEADING,):
+            return 0.6 + shift + gains[splits_seen.index(split)]
+        return 0.6 + shift if contexts == (ROBOT_LIDAR,) else 0.0
+
+    monkeypatch.setattr(room.fitter, "trial", trial)
+    monkeypatch.setattr(room.fitter, "fit", lambda *a, **k: aff.model)
+    monkeypatch.setattr(room.fitter, "competence", lambda *a, **k: 0.6)
+    room.adaptation._adapt_context(aff, 500, np.random.default_rng(2))
+    assert (aff.contexts == (ROBOT_HEADING,)) is replaced
+    assert len(splits_seen) == splits
+    if replaced:
+        assert room.hierarchy.events[-1].kind == EventKind.CONTEXT_REPLACED
+
+
 # ---------------------------------------------------------------------- match
 def _recorded_context_trials(room: Room, monkeypatch) -> list[int]:
     calls: list[int] = []
