@@ -200,9 +200,12 @@ class Planner:
                     return -1
                 then = aff.model.infer(delta, needed).x
                 if self.pc.steer and off <= self.pc.realign:
-                    steer = self._steering(aff, b, needed, obs)
-                    if steer is not None:
-                        return self.execute(aff.input, then + steer, b, actuator, budget, depth,
+                    move = self._steer_by_model(aff, delta, c, needed, then, relations, spreads)
+                    if move is None:
+                        steer = self._steering(aff, b, needed, obs)
+                        move = None if steer is None else then + steer
+                    if move is not None:
+                        return self.execute(aff.input, move, b, actuator, budget, depth,
                                             exclude=aff.id)
                 used = self._reach_context(aff, b, needed, actuator, budget, depth, then=then)
                 if used != 0:
@@ -216,6 +219,39 @@ class Planner:
         if progress <= 0.0:
             return -1
         return self.execute(aff.input, here.x, b, actuator, budget, depth, exclude=aff.id)
+
+    def _steer_by_model(self, aff: Affordance, delta: np.ndarray, c: np.ndarray,
+                        needed: np.ndarray, then: np.ndarray, relations: np.ndarray,
+                        spreads: list[float]) -> np.ndarray | None:
+        """The input move, among `then` turned by up to ±60° and at full or half length, whose
+        outcome `aff`'s forward model predicts nearest `delta` and after which the relation
+        between `aff`'s output and input entities — moved by the outcome less the move —
+        is nearest `needed` (both in units of their scale). None when no context of `aff` is
+        that relation. Pushing from a contact off the line, a move along the wanted push
+        turned the contact further off (the relation's gap to the needed one grew after 4
+        steering steps in 5), as a disc pushes along the line of centres."""
+        if aff.input.prop is not Property.POSITION or aff.input.relative_to is not None:
+            return None
+        cols, offset = [], 0
+        for space, dim in zip(aff.contexts, aff.model.context_dims, strict=True):
+            if (space.prop is Property.POSITION and space.role is aff.output.role
+                    and space.relative_to is aff.input.role):
+                cols.append(np.arange(offset, offset + dim))
+            offset += dim
+        length = float(np.linalg.norm(then))
+        if not cols or length < 1e-9:
+            return None
+        turns = np.deg2rad(np.arange(-60, 61, 10))
+        bearing = float(np.arctan2(then[1], then[0])) + turns
+        unit = np.stack([np.cos(bearing), np.sin(bearing)], axis=1)
+        moves = np.concatenate([length * unit, 0.5 * length * unit])
+        y = aff.model.predict(moves, np.repeat(c[None], moves.shape[0], 0))
+        after = np.repeat(c[None], moves.shape[0], 0)
+        for col in cols:
+            after[:, col] += y - moves
+        miss = np.linalg.norm(y - delta, axis=1) / max(float(np.linalg.norm(delta)), 1e-9)
+        gaps = np.array([self._gap(aff, spreads, row, needed, relations) for row in after])
+        return moves[int(np.argmin(miss + gaps))].copy()
 
     def _steering(self, aff: Affordance, b: Binding, needed: np.ndarray, obs: np.ndarray
                   ) -> np.ndarray | None:
