@@ -419,3 +419,49 @@ def test_a_detour_goes_round_objects_that_leave_no_way_between_them():
         centre = obs[layout.space(f"obj{entity}", Property.POSITION).slice]
         for w in points[:-1]:
             assert np.linalg.norm(w - centre) >= radius + robot_r + planner.pc.approach_margin
+
+
+def _disc_push_model(rng: np.random.Generator, n: int = 1500) -> LocalLinearModel:
+    """Pushes of a disc by a disc: the object moves along the line of centres by the robot's
+    move onto that line (the relation: object minus robot, 0.25 m, any bearing)."""
+    model = LocalLinearModel(2, 2, [2])
+    bearing = rng.uniform(-np.pi, np.pi, n)
+    line = np.stack([np.cos(bearing), np.sin(bearing)], axis=1)
+    moves = rng.uniform(-0.1, 0.1, (n, 2))
+    along = np.maximum(np.sum(moves * line, axis=1), 0.0)
+    model.add(moves, 0.25 * line, along[:, None] * line)
+    return model
+
+
+def test_steering_keeps_the_contact_where_the_push_needs_it():
+    """Robot behind an object but 18° off the line of the wanted push: the move asked of the
+    robot is the one the level's forward model predicts to push the object the wanted way
+    *and* bring the contact back towards the needed relation. Pushing straight along the
+    wanted way turns a disc's contact further off."""
+    planner = _planner()
+    model = _disc_push_model(np.random.default_rng(4))
+    aff = SimpleNamespace(id=3, input=ROBOT_POSITION, output=TARGET_POSITION,
+                          contexts=(TARGET_ROBOT,), model=model)
+    def at(deg):
+        return 0.25 * np.array([np.cos(np.radians(deg)), np.sin(np.radians(deg))])
+
+    c, needed = at(-30.0), at(-48.0)
+    delta = 0.06 * at(-45.0) / 0.25
+    then = model.infer(delta, needed).x
+    relations = np.array([True])
+    move = planner._steer_by_model(aff, delta, c, needed, then, relations, [0.1])
+    assert move is not None
+
+    def after(x):
+        return c + model.predict(x[None], c[None])[0] - x
+
+    def angle_off(rel):
+        return abs(np.degrees(np.arctan2(rel[1], rel[0])) + 48.0)
+
+    assert angle_off(after(move)) < angle_off(c) < angle_off(after(then))
+    assert model.predict(move[None], c[None])[0] @ delta > 0  # and it still pushes the way
+    # A level whose contexts hold no relation to its input entity is left to the old rule.
+    other = SimpleNamespace(id=4, input=ROBOT_POSITION, output=TARGET_POSITION,
+                            contexts=(RADIUS,), model=LocalLinearModel(2, 2, [1]))
+    assert planner._steer_by_model(other, delta, np.zeros(1), np.zeros(1), then,
+                                   np.array([False]), [0.1]) is None
