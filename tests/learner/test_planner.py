@@ -389,6 +389,7 @@ def test_a_roughly_aligned_level_pushes_on_and_steers_back_to_the_needed_relatio
     planner.execute = lambda space, x, *args, **kw: calls.append(("push", x)) or 1
     planner._reach_context = lambda *args, **kw: calls.append(("trip", None)) or 5
     actuator = SimpleNamespace(obs=obs)
+    planner._steer_by_model = lambda *args: None  # no forward model here: the way back
     for off, expected in ((0.3, "push"), (0.6, "trip")):
         calls.clear()
         planner._gap = lambda *args, off=off: off  # spreads from the needed relation
@@ -398,6 +399,11 @@ def test_a_roughly_aligned_level_pushes_on_and_steers_back_to_the_needed_relatio
     planner._gap = lambda *args: 0.3
     planner._one_step(aff, b, np.array([0.1, 0.0]), actuator, 80, 0)
     assert np.allclose(calls[0][1], step + steer)
+    # With a forward model of the relation, its move (`_steer_by_model`) is the one pushed.
+    planner._steer_by_model = lambda *args: np.array([0.05, -0.02])
+    calls.clear()
+    planner._one_step(aff, b, np.array([0.1, 0.0]), actuator, 80, 0)
+    assert np.allclose(calls[0][1], [0.05, -0.02])
     planner.pc = replace(planner.pc, steer=False)
     calls.clear()
     planner._one_step(aff, b, np.array([0.1, 0.0]), actuator, 80, 0)
