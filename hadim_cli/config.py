@@ -236,6 +236,14 @@ class LearnerConfig:
     episode, including those where nothing moved. Such rows are outside the affordance's
     domain (its input did not change), so without this its p_A hardly ever sees a red object
     as a negative (docs/algorithm.md, p_A). Off: not measured enough to be the default."""
+    p_a_pooled: bool = True
+    """Teach p_A of every affordance with the same output (`target.position`: every
+    object-moving affordance) the same examples: the objects any of them moved (positives),
+    those any of them was applied to in vain, and the robot (negatives), one per object and
+    label per learning episode. Whether an object's position can be changed is a fact about
+    the object, seen by whichever affordance acted on it; a fixed object stops the robot or
+    the tool, so its pushes in vain are seldom rows of the pushing or the tool affordance
+    (docs/algorithm.md, p_A). Off: each affordance learns from its own rows only."""
 
     def validate(self) -> None:
         for name in ("sigma", "match_tolerance", "context_gain", "interest_epsilon",
@@ -494,7 +502,8 @@ def config_from_dict(values: Mapping[str, Any]) -> Config:
 
 
 LEGACY_DEFAULTS: dict[str, dict[str, Any]] = {
-    "learner": {"surface_relations": False, "relation_frames": False, "context_splits": 1},
+    "learner": {"surface_relations": False, "relation_frames": False, "context_splits": 1,
+                "p_a_pooled": False},
     "planner": {"navigation": False, "steer": False},
 }
 """Keys added after runs were first stored, with the value that reproduces what a run stored

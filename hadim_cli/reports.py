@@ -78,6 +78,39 @@ def render_h_table(console: Console, rows: list[dict[str, Any]], iteration: int)
                           markup=False, highlight=False)
 
 
+def render_p_a(console: Console, verdicts: list, iteration: int) -> None:
+    """p_A of each affordance (a column) on the reference scene and on unseen objects (rows):
+    P(accept), ✗ where it is wrong (accepts a fixed object or the robot, rejects a pushable
+    one)."""
+    if not verdicts:
+        console.print(f"no affordance with p_A at iteration {iteration}")
+        return
+    table = Table(title=f"p_A at iteration {iteration}",
+                  caption="P(accept); ✗ wrong. green: pushable, red: fixed; unseen: sizes "
+                          "and shades the world never draws")
+    table.add_column("entity", no_wrap=True)
+    for v in verdicts:
+        table.add_column(f"A{v.id}", justify="right")
+    for part in ("scene", "unseen"):
+        names = list(getattr(verdicts[0], part))
+        for i, name in enumerate(names):
+            cells = []
+            for v in verdicts:
+                wrong = name in (v.scene_wrong if part == "scene" else v.unseen_wrong)
+                cells.append(f"{getattr(v, part)[name]:.2f}{' ✗' if wrong else ''}")
+            table.add_row(name if part == "scene" else f"unseen: {name}", *cells,
+                          end_section=i == len(names) - 1)
+    console.print(table)
+    for v in verdicts:
+        r = v.replay
+        verdict = "right" if not v.scene_wrong else f"wrong on {', '.join(v.scene_wrong)}"
+        unseen = "right" if not v.unseen_wrong else f"wrong on {', '.join(v.unseen_wrong)}"
+        console.print(f"  {v.affordance}: scene {verdict}; unseen {unseen}; replay "
+                      f"{r['positives']} positives, {r['negatives_robot']} robot and "
+                      f"{r['negatives_objects']} object negatives", markup=False,
+                      highlight=False)
+
+
 _CHANGE = {"added": "+", "removed": "−"}
 
 

@@ -164,6 +164,11 @@ BUGS = (
     Bug("p-a-blocked-only-when-updated", "hadim_cli/learner/adaptation.py",
         "                if aff.output not in spaces:\n", "                if False:\n",
         f"{STEPS}::test_a_blocked_push_in_an_episode_where_nothing_moved_still_teaches_p_a"),
+    Bug("p-a-not-pooled", "hadim_cli/learner/adaptation.py",
+        "                self._teach_pooled(self.h.with_output(space), t, rng)",
+        "                [self._teach_pooled([a], t, rng) for a in self.h.with_output(space)]",
+        "tests/learner/test_p_a_pooled.py::test_pooled_p_a_is_right_on_the_scene_and_on_unseen"
+        "_objects"),
     Bug("learning-episodes-not-restored", "hadim_cli/learner/state.py",
         "    learner.learning_episodes = int(meta[\"learning_episodes\"])\n", "", TRIP),
     Bug("low-streak-not-restored", "hadim_cli/learner/state.py",

@@ -144,13 +144,18 @@ def affordances(
     at: AtOption = None,
     out: Annotated[Path | None, typer.Option(
         "--out", help="Draw the timeline to a PNG (implies --timeline).")] = None,
+    pa: Annotated[bool, typer.Option(
+        "--pa", help="p_A of each affordance on the reference scene's entities and on objects "
+        "of sizes and shades never seen in training.")] = False,
     store: StoreOption = None,
     as_json: JsonOption = False,
 ) -> None:
-    """The affordance hierarchy H of a run (as it stood at --at), or its timeline."""
+    """The affordance hierarchy H of a run (as it stood at --at), its timeline, or its p_A."""
     from hadim_cli import runs
-    from hadim_cli.reports import affordance_rows, render_h_table, render_timeline
+    from hadim_cli.reports import affordance_rows, render_h_table, render_p_a, render_timeline
 
+    if pa and (timeline or out is not None):
+        raise HadimError("--pa shows p_A of H at one iteration: not with --timeline or --out")
     with runs.open_store(store, create=False, writes=False) as st:
         record = st.get_run(run)
         _refuse_baseline(record, "affordances")
@@ -170,6 +175,15 @@ def affordances(
                 render_timeline(_console(), events)
             return
         session = runs.restore_session(st, record, at)
+    if pa:
+        from hadim_cli.pa_probes import verdicts
+
+        found = verdicts(session)
+        if as_json:
+            typer.echo(json.dumps([v.as_json() for v in found], indent=2))
+        else:
+            render_p_a(_console(), found, session.iteration)
+        return
     rows = affordance_rows(session)
     if as_json:
         typer.echo(json.dumps(rows, indent=2))

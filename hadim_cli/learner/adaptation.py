@@ -80,6 +80,8 @@ class Adaptation:
         spaces = self.non_null_spaces(t)
         for i in rng.permutation(len(spaces)):
             space = spaces[int(i)]
+            if self.config.p_a_pooled:
+                self._teach_pooled(self.h.with_output(space), t, rng)
             for aff in self.h.with_output(space):
                 self._update(aff, t, iteration, rng)
             self._try_create(space, iteration, episode, rng)
@@ -110,7 +112,8 @@ class Adaptation:
         sample = f.candidate_rows(aff.input, aff.output, t)
         if len(sample.rows) == 0:
             return
-        self._train_classifier(aff, sample, rng, self._blocked_in_vain(aff, t))
+        if not self.config.p_a_pooled:
+            self._train_classifier(aff, sample, rng, self._blocked_in_vain(aff, t))
         rows = f.select_rows(sample, rng, self._accept_mask(aff, sample))
         if len(rows) == 0:
             return
@@ -216,10 +219,10 @@ class Adaptation:
             return None
         return value, kind, contexts, detail
 
-    def _train_classifier(self, aff: Affordance, sample: Sample, rng: np.random.Generator,
-                          blocked: Rows | None = None) -> None:
-        """Positives: targets that moved. Negatives: targets A was applied to that did not
-        respond, and the entity the affordance acts from (the robot cannot push itself).
+    def _examples(self, aff: Affordance, sample: Sample,
+                  blocked: Rows | None = None) -> tuple[Rows, np.ndarray]:
+        """p_A's examples from `aff`'s rows: the rows and their labels. Positives: targets
+        that moved. Negatives: targets A was applied to that did not respond (and `blocked`).
 
         Applied to means touched by the actor (the robot, or the tool for a tool affordance)
         before an action the model predicts to move it clearly. The model's errors (the robot
@@ -227,10 +230,7 @@ class Adaptation:
         that do respond, so an object that moved at any time of the environment episode is
         no negative of it: within an episode its properties are the same.
         """
-        if aff.classifier is None:
-            return
-        f = self.fitter
-        moved = f.nonzero(sample.y)
+        moved = self.fitter.nonzero(sample.y)
         negative = self._applied_in_vain(aff, sample, moved)
         pick = moved | negative
         rows = sample.rows.take(np.flatnonzero(pick))
@@ -238,8 +238,44 @@ class Adaptation:
         if blocked is not None and len(blocked):
             rows = rows.concat(blocked)
             labels = np.concatenate([labels, np.zeros(len(blocked), dtype=bool)])
+        return rows, labels
+
+    def _teach_pooled(self, affs: list[Affordance], t: np.ndarray,
+                      rng: np.random.Generator) -> None:
+        """With `p_a_pooled`: p_A of every affordance in `affs` (one output) learns the
+        examples of all of them. Whether an object's position can be changed is the object's
+        (docs/algorithm.md, p_A): a fixed object stops the robot, so it is seldom a row of
+        the affordance acting from the robot's position, yet the one acting from the actions
+        sees it refuse to move."""
+        affs = [a for a in affs if a.classifier is not None]
+        rows, labels = Rows.empty(), np.zeros(0, dtype=bool)
+        for aff in affs:
+            sample = self.fitter.candidate_rows(aff.input, aff.output, t)
+            if len(sample.rows) == 0:
+                continue
+            r, y = self._examples(aff, sample, self._blocked_in_vain(aff, t))
+            rows, labels = rows.concat(r), np.concatenate([labels, y])
         if len(rows) == 0:
             return
+        for aff in affs:
+            self._teach(aff, rows, labels, rng)
+
+    def _train_classifier(self, aff: Affordance, sample: Sample, rng: np.random.Generator,
+                          blocked: Rows | None = None) -> None:
+        """p_A of `aff` learns the examples of its own rows (`_examples`)."""
+        if aff.classifier is None:
+            return
+        rows, labels = self._examples(aff, sample, blocked)
+        self._teach(aff, rows, labels, rng)
+
+    def _teach(self, aff: Affordance, rows: Rows, labels: np.ndarray,
+               rng: np.random.Generator) -> None:
+        """Add one example per (entity, label) of `rows` and the robot (it cannot be the
+        target of an affordance acting from it) to p_A's replay, then train it."""
+        assert aff.classifier is not None
+        if len(rows) == 0:
+            return
+        f = self.fitter
         features = f.target_features(rows)
         # One example per (entity, label) per episode keeps the replay balanced across objects.
         _, first = np.unique(np.stack([rows.target, labels.astype(np.int64)], axis=1), axis=0,

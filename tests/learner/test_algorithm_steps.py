@@ -472,7 +472,7 @@ def test_an_object_that_stops_the_robot_teaches_p_a_with_blocked_pushes(on):
     seen: list[tuple[np.ndarray, np.ndarray]] = []
     push.classifier.add = lambda f, y: seen.append((f.copy(), y.copy()))
     push.classifier.train = lambda rng, steps: 0.0
-    room.adaptation._update(push, np.arange(start, len(room.dataset)), len(room.dataset), rng)
+    room.adaptation._teach_pooled([push], np.arange(start, len(room.dataset)), rng)
     features, labels = seen[-1]
     red = room.learner.reader.visual_features(room.obs, 2)
     assert [bool(y) for f, y in zip(features, labels, strict=True) if np.allclose(f, red)] == \

@@ -1,0 +1,171 @@
+"""p_A asked about probes: the entities of the push-object task's scene (the reference scene:
+6 green, 3 red objects and the robot) and objects of shades and sizes the world never draws.
+
+`hadim affordances RUN --pa` renders it. A probe's features are read from an observation of a
+real `World` (`SpaceReader.visual_features`, p_A's one definition of its input), so a probe is
+seen exactly as an object of a learning episode would be.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from typing import TYPE_CHECKING, Any
+
+import numpy as np
+
+from hadim_cli.world.scene import ObjectSpec, Scene
+
+if TYPE_CHECKING:  # the learner (and torch) only where p_A is asked
+    from hadim_cli.config import WorldConfig
+    from hadim_cli.learner.affordance import Affordance
+    from hadim_cli.learner.spaces import SpaceReader
+    from hadim_cli.session import Session
+
+
+@dataclass(frozen=True)
+class Probe:
+    """One thing p_A is asked about, and whether it should accept it (pushable)."""
+
+    name: str
+    features: np.ndarray
+    pushable: bool
+
+
+@dataclass(frozen=True)
+class Unseen:
+    """An object of a size or shade outside the world's ranges (radius, height, colour)."""
+
+    name: str
+    radius_factor: float
+    """Radius as a multiple of the world's range: < 1 below `object_radius_min`, > 1 above
+    `object_radius_max` (height alike)."""
+    color: tuple[float, float, float]
+    pushable: bool
+
+
+# The world draws a shade's dominant channel in [0.55, 1] and the others in [0, 0.3]
+# (`world.placement.shade`): a dark shade has a dominant channel of 0.45, a pale one others
+# of 0.35. Sizes: 0.6 × the smallest radius and height, 1.2 × the largest.
+UNSEEN: tuple[Unseen, ...] = (
+    Unseen("green-small", 0.6, (0.1, 0.7, 0.1), True),
+    Unseen("green-large", 1.2, (0.2, 0.9, 0.2), True),
+    Unseen("green-dark", 1.0, (0.1, 0.45, 0.1), True),
+    Unseen("green-pale", 1.0, (0.35, 0.8, 0.35), True),
+    Unseen("red-small", 0.6, (0.8, 0.1, 0.1), False),
+    Unseen("red-large", 1.2, (0.9, 0.2, 0.2), False),
+    Unseen("red-dark", 1.0, (0.45, 0.1, 0.1), False),
+    Unseen("red-pale", 1.0, (0.8, 0.35, 0.35), False),
+)
+
+
+def _size(config: WorldConfig, factor: float) -> tuple[float, float]:
+    """(radius, height) below the world's ranges for factor < 1, above for > 1, mid-range
+    for 1."""
+    if factor < 1:
+        return config.object_radius_min * factor, config.object_height_min * factor
+    if factor > 1:
+        return config.object_radius_max * factor, config.object_height_max * factor
+    return ((config.object_radius_min + config.object_radius_max) / 2,
+            (config.object_height_min + config.object_height_max) / 2)
+
+
+def unseen_scenes(config: WorldConfig, unseen: tuple[Unseen, ...] = UNSEEN) -> list[Scene]:
+    """Scenes holding every `unseen` object (a scene has the layout's number of objects: the
+    last ones are repeated to fill it), on a ring round the robot."""
+    n = config.n_green + config.n_red
+    scenes = []
+    for start in range(0, len(unseen), n):
+        chunk = list(unseen[start:start + n])
+        chunk += [chunk[-1]] * (n - len(chunk))
+        ring = min(config.room_width, config.room_height) / 2 - 0.7
+        objects = []
+        for i, u in enumerate(chunk):
+            r, h = _size(config, u.radius_factor)
+            a = 2 * math.pi * i / n
+            objects.append(ObjectSpec(ring * math.cos(a), ring * math.sin(a), r, h, u.color,
+                                      u.pushable))
+        scenes.append(Scene(tuple(objects)))
+    return scenes
+
+
+def _features(world, reader: SpaceReader, scene: Scene) -> np.ndarray:
+    obs = world.reset(scene=scene)
+    return np.stack([reader.visual_features(obs, i) for i in range(len(world.layout.entities))])
+
+
+def scene_probes(world, reader: SpaceReader, scene: Scene) -> list[Probe]:
+    """The robot and every object of `scene` (green: pushable, red: fixed)."""
+    feats = _features(world, reader, scene)
+    truth = [False] + [o.pushable for o in scene.objects]
+    names = world.layout.entities
+    from hadim_cli.reports import entity_label
+
+    return [Probe(entity_label(name, scene), f, t)
+            for name, f, t in zip(names, feats, truth, strict=True)]
+
+
+def unseen_probes(world, reader: SpaceReader, unseen: tuple[Unseen, ...] = UNSEEN
+                  ) -> list[Probe]:
+    """The `unseen` objects as the robot would see them."""
+    out: list[Probe] = []
+    for k, scene in enumerate(unseen_scenes(world.config, unseen)):
+        feats = _features(world, reader, scene)[1:]  # not the robot
+        chunk = unseen[k * len(feats):(k + 1) * len(feats)]
+        out += [Probe(u.name, f, u.pushable) for u, f in zip(chunk, feats, strict=False)]
+    return out
+
+
+@dataclass(frozen=True)
+class Verdict:
+    """p_A of one affordance on the probes."""
+
+    affordance: str
+    id: int
+    scene: dict[str, float]
+    """P(accept) per entity of the reference scene."""
+    unseen: dict[str, float]
+    scene_wrong: tuple[str, ...]
+    unseen_wrong: tuple[str, ...]
+    replay: dict[str, int]
+    """What p_A learned from: positives; negatives that are the robot; other negatives."""
+
+    def as_json(self) -> dict[str, Any]:
+        return {"id": self.id, "affordance": self.affordance, "scene": self.scene,
+                "unseen": self.unseen, "scene_right": not self.scene_wrong,
+                "unseen_right": not self.unseen_wrong, "scene_wrong": list(self.scene_wrong),
+                "unseen_wrong": list(self.unseen_wrong), "replay": self.replay}
+
+
+def _ask(aff: Affordance, probes: list[Probe]) -> tuple[dict[str, float], tuple[str, ...]]:
+    assert aff.classifier is not None
+    p = aff.classifier.predict_proba(np.stack([q.features for q in probes]))
+    wrong = tuple(q.name for q, v in zip(probes, p, strict=True) if (v >= 0.5) != q.pushable)
+    return {q.name: round(float(v), 4) for q, v in zip(probes, p, strict=True)}, wrong
+
+
+def verdicts(session: Session) -> list[Verdict]:
+    """p_A of every affordance of H that has one, on the reference scene and unseen objects."""
+    from hadim_cli.evaluation.tasks import load_task
+    from hadim_cli.world.world import World
+
+    learner = session.learner
+    world = World(session.config.world)
+    scene = scene_probes(world, learner.reader, load_task("push-object").scene)
+    unseen = unseen_probes(world, learner.reader)
+    robot = scene[0].features
+    out = []
+    for aff in learner.hierarchy:
+        c = aff.classifier
+        if c is None:
+            continue
+        on_scene, scene_wrong = _ask(aff, scene)
+        on_unseen, unseen_wrong = _ask(aff, unseen)
+        state = c.state()
+        negatives = state["replay.negative"]
+        is_robot = np.all(np.isclose(negatives, robot), axis=1)
+        out.append(Verdict(aff.describe(), aff.id, on_scene, on_unseen, scene_wrong,
+                           unseen_wrong, {"positives": int(state["replay.positive"].shape[0]),
+                                          "negatives_robot": int(is_robot.sum()),
+                                          "negatives_objects": int((~is_robot).sum())}))
+    return out

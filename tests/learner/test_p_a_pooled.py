@@ -1,0 +1,146 @@
+"""p_A of every object-moving affordance learns from all of them (`learner.p_a_pooled`), and
+is then right on objects of sizes and shades it never saw (issue 16, item 6).
+
+A fixed object stops the robot: pushing it in vain leaves the robot where it was, so the row is
+outside the domain of `robot.position → target.position` (its input did not change) and that
+affordance's own p_A never sees a fixed object refuse to move. `action → target.position`
+(every row is in its domain) does. The data are hand-built (`handmade.Room`), objects drawn in
+the world's ranges of size and shade; the probes are `hadim_cli.pa_probes`'s, read from a real
+World.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from handmade import ROBOT_POSITION, TARGET_POSITION, TARGET_ROBOT, Room
+
+from hadim_cli.config import load_config
+from hadim_cli.learner.spaces import ACTION, Rows, SpaceReader
+from hadim_cli.pa_probes import UNSEEN, scene_probes, unseen_probes
+from hadim_cli.world.layout import Property
+from hadim_cli.world.placement import shade
+
+ROBOT_RADIUS = 0.15
+
+
+def push(room: Room, obj: str, angle: float, radius: float, moves: bool) -> None:
+    """The robot at the origin, in contact behind `obj`, drives 0.1 m along `angle`; a fixed
+    object (`moves` false) stops it: neither moves."""
+    u = np.array([np.cos(angle), np.sin(angle)])
+    room.place("robot", [0.0, 0.0])
+    room.set("robot", Property.HEADING, u)
+    parked = room.obs[room.layout.space(obj, Property.POSITION).slice].copy()
+    at = (ROBOT_RADIUS + radius) * u
+    room.place(obj, at)
+    before = room.obs.copy()
+    room.place("robot", 0.1 * u if moves else [0.0, 0.0])
+    room.place(obj, at + (0.09 * u if moves else 0.0))
+    room.dataset.append(np.array([1.0, 1.0]), before, room.obs.copy())
+    room.place(obj, parked)
+
+
+def draw_objects(room: Room, rng: np.random.Generator) -> dict[str, float]:
+    """New sizes and shades in the world's ranges: obj1 and obj3 green, obj2 red."""
+    w = load_config().world
+    radii = {}
+    for name, channel in (("obj1", 1), ("obj2", 0), ("obj3", 1)):
+        radii[name] = float(rng.uniform(w.object_radius_min, w.object_radius_max))
+        room.set(name, Property.RADIUS, [radii[name]])
+        room.set(name, Property.HEIGHT, [rng.uniform(w.object_height_min, w.object_height_max)])
+        room.set(name, Property.COLOR, shade(rng, channel))
+    return radii
+
+
+def trained_room(pooled: bool, episodes: int = 10) -> Room:
+    """Two pushing affordances (from the robot's position, from the actions), then
+    `episodes` environment episodes of new objects, each pushed: the green ones move, the red
+    one stops the robot. Algorithm 2 runs after each."""
+    rng = np.random.default_rng(3)
+    room = Room(p_a_pooled=pooled)
+    room.episode()
+    radii = draw_objects(room, rng)
+    start = len(room.dataset)
+    for a in np.linspace(0, 2 * np.pi, 30, endpoint=False):
+        push(room, "obj1", a, radii["obj1"], moves=True)
+    t = np.arange(start, len(room.dataset), dtype=np.int64)
+    rows = Rows(t, np.full(t.size, 1), np.full(t.size, -1))
+    for inp in (ROBOT_POSITION, ACTION):
+        aff = room.fitter.new_affordance(room.hierarchy.allocate_id(), inp, TARGET_POSITION,
+                                         (TARGET_ROBOT,), rows, len(room.dataset), rng)
+        room.hierarchy.add(aff, len(room.dataset))
+    for episode in range(episodes):
+        start = room.episode()
+        radii = draw_objects(room, rng)
+        for a in rng.uniform(0, 2 * np.pi, 2):
+            push(room, "obj2", a, radii["obj2"], moves=False)
+            for green in ("obj1", "obj3"):
+                push(room, green, a, radii[green], moves=True)
+        room.adaptation.run(start, len(room.dataset), len(room.dataset), episode, rng)
+    return room
+
+
+@pytest.fixture(scope="module", autouse=True)
+def one_thread():
+    """As a `Session` does: on 2 shared cores, torch's thread pool only waits."""
+    import torch
+
+    before = torch.get_num_threads()
+    torch.set_num_threads(1)
+    yield
+    torch.set_num_threads(before)
+
+
+@pytest.fixture(scope="module")
+def pooled() -> Room:
+    return trained_room(pooled=True)
+
+
+def _probes(room: Room):
+    from hadim_cli.evaluation.tasks import load_task
+    from hadim_cli.world.world import World
+
+    world = World(load_config().world)
+    reader = SpaceReader(world.layout)  # the world's layout; the same features as the room's
+    return (scene_probes(world, reader, load_task("push-object").scene),
+            unseen_probes(world, reader))
+
+
+def _wrong(room: Room, aff_input: str, probes) -> list[str]:
+    aff = next(a for a in room.hierarchy if a.input.name == aff_input)
+    ok = aff.classifier.accepts(np.stack([p.features for p in probes]))
+    return [p.name for p, a in zip(probes, ok, strict=True) if a != p.pushable]
+
+
+def test_unseen_probes_lie_outside_the_world_s_ranges():
+    """The probes are what their names say: sizes below or above the world's ranges, shades
+    darker or paler than any it draws, read from a real World's observation."""
+    from hadim_cli.world.world import World
+
+    w = load_config().world
+    world = World(w)
+    probes = unseen_probes(world, SpaceReader(world.layout))
+    assert [p.name for p in probes] == [u.name for u in UNSEEN]
+    radius, height = w.object_radius_max, w.object_height_max  # features are r / r_max, …
+    for p in probes:
+        r, h, rgb = p.features[0] * radius, p.features[1] * height, p.features[2:5]
+        dominant, others = (rgb[1], rgb[[0, 2]]) if p.pushable else (rgb[0], rgb[1:])
+        in_size = w.object_radius_min <= r <= w.object_radius_max \
+            and w.object_height_min <= h <= w.object_height_max
+        in_shade = dominant >= 0.55 and (others <= 0.3).all()
+        assert not (in_size and in_shade), p.name
+
+
+@pytest.mark.parametrize("inp", ["robot.position", "action"])
+def test_pooled_p_a_is_right_on_the_scene_and_on_unseen_objects(pooled, inp):
+    scene, unseen = _probes(pooled)
+    assert _wrong(pooled, inp, scene) == []
+    assert _wrong(pooled, inp, unseen) == []
+
+
+def test_without_pooling_the_push_from_the_robot_s_position_accepts_fixed_objects():
+    """The failure pooling mends: that affordance's own rows never show a fixed object."""
+    room = trained_room(pooled=False)
+    scene, unseen = _probes(room)
+    assert "obj7 (red)" in _wrong(room, "robot.position", scene)
+    assert _wrong(room, "action", scene) == []  # it saw the red objects stop the robot
