@@ -147,15 +147,16 @@ def _ask(aff: Affordance, probes: list[Probe]) -> tuple[dict[str, float], tuple[
 def verdicts(session: Session) -> list[Verdict]:
     """p_A of every affordance of H that has one, on the reference scene and unseen objects."""
     from hadim_cli.evaluation.tasks import load_task
+    from hadim_cli.learner.spaces import SpaceReader
     from hadim_cli.world.world import World
 
-    learner = session.learner
     world = World(session.config.world)
-    scene = scene_probes(world, learner.reader, load_task("push-object").scene)
-    unseen = unseen_probes(world, learner.reader)
+    reader = SpaceReader(world.layout)  # p_A's features do not depend on the relations' offset
+    scene = scene_probes(world, reader, load_task("push-object").scene)
+    unseen = unseen_probes(world, reader)
     robot = scene[0].features
     out = []
-    for aff in learner.hierarchy:
+    for aff in session.learner.hierarchy:
         c = aff.classifier
         if c is None:
             continue

@@ -97,6 +97,7 @@ def test_unknown_run(runner, trained, args):
     (("affordances", "run-1", "--at", 1000, "--timeline"), "beyond"),
     (("affordances", "run-1", "--at", 10), "no checkpoint at or before"),
     (("affordances", "run-1", "--timeline", "--out", "{nodir}"), "cannot write"),
+    (("affordances", "run-1", "--pa", "--timeline"), "not with --timeline"),
     (("fork", "run-1", "--at", 1000), "it has only 100 iterations"),
     (("fork", "run-1", "--at", 10), "its first checkpoint is at iteration 25"),
     (("fork", "run-1", "--set", "world.nope=1"), "unknown config key 'world.nope'"),
@@ -260,6 +261,10 @@ def test_affordances_now_at_and_timeline(runner, trained, tmp_path):
     ok(runner, "affordances", "run-1", "--out", implied, "--store", trained)
     assert implied.read_bytes().startswith(PNG)
     assert "H at iteration 100" in ok(runner, "affordances", "run-1", "--store", trained).stdout
+    for v in json.loads(ok(runner, "affordances", "run-1", "--pa", "--json", "--store",
+                           trained).stdout):  # (the rendering: tests/learner/test_p_a_pooled.py)
+        assert {"id", "affordance", "scene", "unseen", "scene_right", "unseen_right",
+                "replay"} <= v.keys()
 
 
 def test_eval_json_and_a_user_points_file(runner, trained, points_file, tmp_path):

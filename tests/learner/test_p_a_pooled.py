@@ -144,3 +144,31 @@ def test_without_pooling_the_push_from_the_robot_s_position_accepts_fixed_object
     scene, unseen = _probes(room)
     assert "obj7 (red)" in _wrong(room, "robot.position", scene)
     assert _wrong(room, "action", scene) == []  # it saw the red objects stop the robot
+
+
+def test_hadim_affordances_pa_shows_each_affordance_s_p_a(pooled):
+    """What `hadim affordances RUN --pa` prints: P(accept) per probe and affordance, ✗ where
+    wrong, and what each p_A learned from."""
+    import io
+    from types import SimpleNamespace
+
+    from rich.console import Console
+
+    from hadim_cli.pa_probes import verdicts
+    from hadim_cli.reports import render_p_a
+
+    found = verdicts(SimpleNamespace(learner=pooled.learner, config=load_config()))
+    assert [v.affordance.split("(")[1].split(" ")[0] for v in found] == ["robot.position",
+                                                                       "action"]
+    for v in found:
+        assert len(v.scene) == 10 and len(v.unseen) == len(UNSEEN)
+        assert v.scene["robot"] < 0.5 and v.scene["obj1 (green)"] >= 0.5
+        assert v.scene_wrong == () and v.unseen_wrong == ()
+        # (the hand-built robot is not the World's: its negatives count as objects here)
+        assert v.replay["positives"] > 0 and v.replay["negatives_objects"] > 0
+        assert v.as_json()["scene_right"] and v.as_json()["unseen_right"]
+    out = io.StringIO()
+    render_p_a(Console(file=out, width=200), found, 300)
+    text = out.getvalue()
+    assert "p_A at iteration 300" in text and "unseen: red-pale" in text and "✗" not in text
+    assert "scene right; unseen right" in text
