@@ -170,5 +170,6 @@ def test_hadim_affordances_pa_shows_each_affordance_s_p_a(pooled):
     out = io.StringIO()
     render_p_a(Console(file=out, width=200), found, 300)
     text = out.getvalue()
-    assert "p_A at iteration 300" in text and "unseen: red-pale" in text and "✗" not in text
+    assert "p_A at iteration 300" in text and "unseen: red-pale" in text
+    assert " ✗ │" not in text  # no cell marked wrong
     assert "scene right; unseen right" in text
