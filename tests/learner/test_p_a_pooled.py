@@ -17,7 +17,7 @@ from handmade import ROBOT_POSITION, TARGET_POSITION, TARGET_ROBOT, Room
 
 from hadim_cli.config import load_config
 from hadim_cli.learner.spaces import ACTION, Rows, SpaceReader
-from hadim_cli.pa_probes import UNSEEN, scene_probes, unseen_probes
+from hadim_cli.pa_probes import UNSEEN, scene_probes, unseen_probes, unseen_size
 from hadim_cli.world.layout import Property
 from hadim_cli.world.placement import shade
 
@@ -129,6 +129,28 @@ def test_unseen_probes_lie_outside_the_world_s_ranges():
             and w.object_height_min <= h <= w.object_height_max
         in_shade = dominant >= 0.55 and (others <= 0.3).all()
         assert not (in_size and in_shade), p.name
+
+
+@pytest.mark.parametrize("u", UNSEEN, ids=lambda u: u.name)
+def test_an_unseen_probe_is_pushable_exactly_when_the_robot_can_push_it(u):
+    """The probes' labels are the physics': the robot, in contact behind the object, drives
+    full forward 5 actions; a pushable probe moves (> 0.2 m), a fixed one does not."""
+    from hadim_cli.world.scene import ObjectSpec, Scene
+    from hadim_cli.world.world import World
+
+    w = load_config().world
+    world = World(w)
+    r, h = unseen_size(w, u)
+    parked = [ObjectSpec(-1.6 + 0.35 * i, 1.6, 0.1, 0.2, (0.2, 0.8, 0.2), True)
+              for i in range(w.n_green + w.n_red - 1)]
+    obs = world.reset(scene=Scene((ObjectSpec(w.robot_radius + r + 0.01, 0.0, r, h, u.color,
+                                              u.pushable), *parked)))
+    where = world.layout.space("obj1", Property.POSITION).slice
+    start = obs[where].copy()
+    for _ in range(5):
+        obs = world.step(np.array([1.0, 1.0]))
+    moved = float(np.linalg.norm(obs[where] - start))
+    assert (moved > 0.2) == u.pushable, moved
 
 
 @pytest.mark.parametrize("inp", ["robot.position", "action"])
