@@ -236,6 +236,11 @@ class LearnerConfig:
     episode, including those where nothing moved. Such rows are outside the affordance's
     domain (its input did not change), so without this its p_A hardly ever sees a red object
     as a negative (docs/algorithm.md, p_A). Off: not measured enough to be the default."""
+    open_contexts: bool = False
+    """Let Algorithm 2 pick contexts among every observed space of the objects an affordance
+    binds (absolute position, colour, shape as well as the relation to the robot, radius and
+    height), as the paper does; off: the fixed list of `spaces.context_candidates`
+    (docs/algorithm.md, departures, for what opening them measured)."""
     p_a_pooled: bool = True
     """Teach p_A of every affordance with the same output (`target.position`: every
     object-moving affordance) the same examples: the objects any of them moved (positives),

@@ -169,6 +169,11 @@ BUGS = (
         "                [self._teach_pooled([a], t, rng) for a in self.h.with_output(space)]",
         "tests/learner/test_p_a_pooled.py::test_pooled_p_a_is_right_on_the_scene_and_on_unseen"
         "_objects"),
+    Bug("open-contexts-ignored", "hadim_cli/learner/adaptation.py",
+        "every = context_candidates(roles, open_all=self.config.open_contexts)",
+        "every = context_candidates(roles)",
+        "tests/learner/test_open_contexts.py::test_the_context_search_tries_the_open_spaces_when"
+        "_asked"),
     Bug("learning-episodes-not-restored", "hadim_cli/learner/state.py",
         "    learner.learning_episodes = int(meta[\"learning_episodes\"])\n", "", TRIP),
     Bug("low-streak-not-restored", "hadim_cli/learner/state.py",

@@ -134,14 +134,15 @@ class Adaptation:
                                                             dict[str, str]]]:
         roles = aff.input.roles | aff.output.roles
         current = aff.contexts
-        candidates = [c for c in context_candidates(roles) if c not in current]
+        every = context_candidates(roles, open_all=self.config.open_contexts)
+        candidates = [c for c in every if c not in current]
         options: list[tuple[EventKind, tuple[RoleSpace, ...], dict[str, str]]] = []
         for c in candidates:
             options.append((EventKind.CONTEXT_ADDED, (*current, c), {"added": c.name}))
         if len(current) >= 2:
             # Restarts from one context let the search leave a local optimum that needs two
             # single changes, each too small to pass `context_gain` on its own.
-            for c in context_candidates(roles):
+            for c in every:
                 options.append((EventKind.CONTEXT_REPLACED, (c,),
                                 {"removed": ", ".join(x.name for x in current if x != c),
                                  "added": "" if c in current else c.name}))
@@ -367,7 +368,8 @@ class Adaptation:
 
         bare = score(())
         best = (bare, ())
-        for c in context_candidates(inp.roles | out.roles):
+        for c in context_candidates(inp.roles | out.roles,
+                                    open_all=self.config.open_contexts):
             value = score((c,))
             if value > best[0]:
                 best = (value, (c,))

@@ -88,18 +88,30 @@ OUTPUT_SPACES: tuple[RoleSpace, ...] = (
 )
 
 
-def context_candidates(roles: frozenset[Role]) -> tuple[RoleSpace, ...]:
-    """Every context space that can be read for an affordance involving `roles`."""
+OPEN_OBJECT_PROPERTIES: tuple[Property, ...] = (
+    Property.POSITION, Property.RADIUS, Property.HEIGHT, Property.COLOR, Property.SHAPE)
+"""An object's observed spaces (its position relative to the robot comes as `role-robot`)."""
+
+
+def context_candidates(roles: frozenset[Role], *, open_all: bool = False
+                       ) -> tuple[RoleSpace, ...]:
+    """Every context space that can be read for an affordance involving `roles`: the robot's
+    heading, LIDAR and position; each bound object's position relative to the robot, radius
+    and height; the target's position relative to the tool. With `open_all` (the paper's
+    Algorithm 2, `learner.open_contexts`), every observed space of the bound objects as well:
+    absolute position, colour, shape. (The robot's radius, height, colour and shape never
+    change: they cannot tell two situations apart and are never candidates.)"""
     out: list[RoleSpace] = [
         RoleSpace(Role.ROBOT, Property.HEADING),
         RoleSpace(Role.ROBOT, Property.LIDAR),
         RoleSpace(Role.ROBOT, Property.POSITION),
     ]
+    props = OPEN_OBJECT_PROPERTIES if open_all else (Property.RADIUS, Property.HEIGHT)
     for role in (Role.TARGET, Role.TOOL):
         if role not in roles:
             continue
         out.append(RoleSpace(role, Property.POSITION, Role.ROBOT))
-        out.extend(RoleSpace(role, p) for p in (Property.RADIUS, Property.HEIGHT))
+        out.extend(RoleSpace(role, p) for p in props)
     if {Role.TARGET, Role.TOOL} <= roles:
         out.append(RoleSpace(Role.TARGET, Property.POSITION, Role.TOOL))
     return tuple(out)

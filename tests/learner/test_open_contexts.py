@@ -1,0 +1,40 @@
+"""`learner.open_contexts`: Algorithm 2 may pick any observed space of the bound objects as a
+context (issue 16, item 1); off, the fixed list."""
+
+from __future__ import annotations
+
+import numpy as np
+from handmade import ROBOT_POSITION, TARGET_POSITION, TARGET_ROBOT, Room
+
+from hadim_cli.learner.spaces import Property, Role, RoleSpace, context_candidates
+
+TOOL_TARGET = frozenset({Role.TARGET, Role.TOOL})
+
+
+def names(spaces) -> set[str]:
+    return {s.name for s in spaces}
+
+
+def test_open_candidates_hold_every_observed_space_of_the_bound_objects():
+    closed = names(context_candidates(TOOL_TARGET))
+    opened = names(context_candidates(TOOL_TARGET, open_all=True))
+    assert closed < opened
+    for role in ("target", "tool"):
+        for prop in ("position", "radius", "height", "color", "shape"):
+            assert f"{role}.{prop}" in opened
+        assert f"{role}-robot" in opened
+        assert f"{role}.color" not in closed and f"{role}.position" not in closed
+    assert "target-tool" in opened
+    # Only the roles an affordance binds, and never the robot's constant properties.
+    robot_only = names(context_candidates(frozenset({Role.ROBOT}), open_all=True))
+    assert robot_only == {"robot.heading", "robot.lidar", "robot.position"}
+
+
+def test_the_context_search_tries_the_open_spaces_when_asked():
+    colour = RoleSpace(Role.TARGET, Property.COLOR)
+    for on in (False, True):
+        room = Room(open_contexts=on)
+        push = room.affordance(room.moves(np.random.default_rng(0), 10),
+                               (TARGET_ROBOT,), inp=ROBOT_POSITION, out=TARGET_POSITION)
+        tried = {c for _, contexts, _ in room.adaptation._context_options(push) for c in contexts}
+        assert (colour in tried) == on
