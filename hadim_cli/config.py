@@ -241,6 +241,10 @@ class LearnerConfig:
     binds (absolute position, colour, shape as well as the relation to the robot, radius and
     height), as the paper does; off: the fixed list of `spaces.context_candidates`
     (docs/algorithm.md, departures, for what opening them measured)."""
+    open_outputs: bool = False
+    """Let the LIDAR be the output of an affordance too (`spaces.OPEN_OUTPUT_SPACES`), as the
+    paper lets any space be; off: the robot's position and heading and an object's position
+    (docs/algorithm.md, departures, for what opening it measured)."""
     p_a_pooled: bool = True
     """Teach p_A of every affordance with the same output (`target.position`: every
     object-moving affordance) the same examples: the objects any of them moved (positives),

@@ -172,8 +172,13 @@ BUGS = (
     Bug("open-contexts-ignored", "hadim_cli/learner/adaptation.py",
         "every = context_candidates(roles, open_all=self.config.open_contexts)",
         "every = context_candidates(roles)",
-        "tests/learner/test_open_contexts.py::test_the_context_search_tries_the_open_spaces_when"
+        "tests/learner/test_open_spaces.py::test_the_context_search_tries_the_open_spaces_when"
         "_asked"),
+    Bug("open-outputs-ignored", "hadim_cli/learner/adaptation.py",
+        "outputs = OPEN_OUTPUT_SPACES if self.config.open_outputs else OUTPUT_SPACES",
+        "outputs = OUTPUT_SPACES",
+        "tests/learner/test_open_spaces.py::test_the_lidar_is_an_output_only_when_outputs_are"
+        "_open"),
     Bug("learning-episodes-not-restored", "hadim_cli/learner/state.py",
         "    learner.learning_episodes = int(meta[\"learning_episodes\"])\n", "", TRIP),
     Bug("low-streak-not-restored", "hadim_cli/learner/state.py",

@@ -21,6 +21,7 @@ from hadim_cli.config import LearnerConfig
 from hadim_cli.learner.affordance import Affordance, Fitter, Sample, typical_step
 from hadim_cli.learner.hierarchy import Event, EventKind, Hierarchy
 from hadim_cli.learner.spaces import (
+    OPEN_OUTPUT_SPACES,
     OUTPUT_SPACES,
     Role,
     RoleSpace,
@@ -70,7 +71,8 @@ class Adaptation:
         self.backoff = CreationBackoff()
 
     def non_null_spaces(self, t: np.ndarray) -> list[RoleSpace]:
-        return [space for space in OUTPUT_SPACES if self.fitter.changed(space, t)[1].any()]
+        outputs = OPEN_OUTPUT_SPACES if self.config.open_outputs else OUTPUT_SPACES
+        return [space for space in outputs if self.fitter.changed(space, t)[1].any()]
 
     def run(self, t0: int, t1: int, iteration: int, episode: int,
             rng: np.random.Generator) -> list[Event]:

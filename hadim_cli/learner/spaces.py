@@ -86,6 +86,10 @@ OUTPUT_SPACES: tuple[RoleSpace, ...] = (
     RoleSpace(Role.ROBOT, Property.HEADING),
     RoleSpace(Role.TARGET, Property.POSITION),
 )
+OPEN_OUTPUT_SPACES: tuple[RoleSpace, ...] = (*OUTPUT_SPACES, RoleSpace(Role.ROBOT, Property.LIDAR))
+"""With `learner.open_outputs`: the LIDAR as well. (Objects have no heading; the tool's
+position is `target.position` under another binding; a relative position's change would be
+read raw, which `Fitter.values` does not do for outputs.)"""
 
 
 OPEN_OBJECT_PROPERTIES: tuple[Property, ...] = (

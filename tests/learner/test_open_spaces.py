@@ -1,10 +1,11 @@
 """`learner.open_contexts`: Algorithm 2 may pick any observed space of the bound objects as a
-context (issue 16, item 1); off, the fixed list."""
+context (issue 16, item 1); off, the fixed list. `learner.open_outputs`: the LIDAR may be an
+affordance's output (item 2)."""
 
 from __future__ import annotations
 
 import numpy as np
-from handmade import ROBOT_POSITION, TARGET_POSITION, TARGET_ROBOT, Room
+from handmade import ROBOT_LIDAR, ROBOT_POSITION, TARGET_POSITION, TARGET_ROBOT, Room
 
 from hadim_cli.learner.spaces import Property, Role, RoleSpace, context_candidates
 
@@ -38,3 +39,15 @@ def test_the_context_search_tries_the_open_spaces_when_asked():
                                (TARGET_ROBOT,), inp=ROBOT_POSITION, out=TARGET_POSITION)
         tried = {c for _, contexts, _ in room.adaptation._context_options(push) for c in contexts}
         assert (colour in tried) == on
+
+
+def test_the_lidar_is_an_output_only_when_outputs_are_open():
+    for on in (False, True):
+        room = Room(open_outputs=on)
+        room.episode()
+        t = room.moves(np.random.default_rng(0), 3)
+        before = room.obs.copy()
+        room.set("robot", Property.LIDAR, [0.5, 0.6, 0.7, 0.8])  # only the LIDAR changes
+        room.dataset.append(np.zeros(2), before, room.obs.copy())
+        spaces = room.adaptation.non_null_spaces(np.append(t, len(room.dataset) - 1))
+        assert (ROBOT_LIDAR in spaces) == on
