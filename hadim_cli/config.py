@@ -245,6 +245,11 @@ class LearnerConfig:
     """Let the LIDAR be the output of an affordance too (`spaces.OPEN_OUTPUT_SPACES`), as the
     paper lets any space be; off: the robot's position and heading and an object's position
     (docs/algorithm.md, departures, for what opening it measured)."""
+    absorb_mismatch: bool = True
+    """An affordance keeps the rows of an update that did not match (its competence fell by
+    more than `match_tolerance`) even when no context change makes them fit. Off (the paper's
+    Algorithm 2): such rows are given back and the affordance refitted without them
+    (docs/algorithm.md, departures)."""
     p_a_pooled: bool = True
     """Teach p_A of every affordance with the same output (`target.position`: every
     object-moving affordance) the same examples: the objects any of them moved (positives),

@@ -179,6 +179,10 @@ BUGS = (
         "outputs = OUTPUT_SPACES",
         "tests/learner/test_open_spaces.py::test_the_lidar_is_an_output_only_when_outputs_are"
         "_open"),
+    Bug("mismatch-absorbed-anyway", "hadim_cli/learner/adaptation.py",
+        "        if not self.config.absorb_mismatch \\\n",
+        "        if False \\\n",
+        f"{STEPS}::test_rows_that_no_context_makes_fit_are_given_back_without_absorb_mismatch"),
     Bug("learning-episodes-not-restored", "hadim_cli/learner/state.py",
         "    learner.learning_episodes = int(meta[\"learning_episodes\"])\n", "", TRIP),
     Bug("low-streak-not-restored", "hadim_cli/learner/state.py",

@@ -119,7 +119,7 @@ class Adaptation:
         rows = f.select_rows(sample, rng, self._accept_mask(aff, sample))
         if len(rows) == 0:
             return
-        before = aff.competence
+        before, old_rows = aff.competence, aff.rows
         s = f.values(aff.input, aff.output, aff.contexts, rows)
         aff.model.add(s.x, s.c, s.y)
         aff.rows = aff.rows.concat(rows)
@@ -128,6 +128,12 @@ class Adaptation:
         review = len(aff.history) % self.config.context_review_every == 0
         if not matched or review:
             self._adapt_context(aff, iteration, rng)
+        if not self.config.absorb_mismatch \
+                and aff.competence < before - self.config.match_tolerance:
+            # The paper: data no context makes fit are not this affordance's.
+            aff.rows = old_rows
+            aff.model = f.fit(aff.input, aff.output, aff.contexts, old_rows)
+            aff.competence = f.competence(aff.model, rng)
         aff.history.append((iteration, aff.competence))
         low = aff.competence < self.config.tau_deletion
         aff.low_streak = aff.low_streak + 1 if low else 0

@@ -156,6 +156,27 @@ def test_rows_that_do_not_match_trigger_a_context_search(noise, monkeypatch):
     assert start == int(t[0])
 
 
+@pytest.mark.parametrize("absorb", [True, False])
+def test_rows_that_no_context_makes_fit_are_given_back_without_absorb_mismatch(absorb,
+                                                                              monkeypatch):
+    """`learner.absorb_mismatch` off (the paper): noise that lowers the affordance's competence
+    and no context change mends is not kept; a matching episode is kept either way."""
+    room = Room(context_review_every=1000, absorb_mismatch=absorb)
+    rng = np.random.default_rng(0)
+    aff = room.affordance(room.moves(rng, 150), (ROBOT_HEADING,))
+    _recorded_context_trials(room, monkeypatch)  # no context change can help
+    before = aff.competence
+    room.episode()
+    n_rows = len(aff.rows)
+    room.adaptation._update(aff, room.moves(rng, 60, noise=True), len(room.dataset), rng)
+    assert len(aff.rows) == (n_rows + 60 if absorb else n_rows)
+    assert aff.model.n == len(aff.rows)
+    assert (aff.competence < before - room.config.match_tolerance) == absorb
+    room.episode()
+    room.adaptation._update(aff, room.moves(rng, 20), len(room.dataset), rng)
+    assert len(aff.rows) == (n_rows + 80 if absorb else n_rows + 20)
+
+
 def test_contexts_are_reviewed_every_few_updates_even_when_rows_match(monkeypatch):
     room = Room(context_review_every=3)
     rng = np.random.default_rng(0)
