@@ -1,5 +1,5 @@
 """`learner.open_contexts`: Algorithm 2 may pick any observed space of the bound objects as a
-context (issue 16, item 1); off, the fixed list. `learner.open_outputs`: the LIDAR may be an
+context (the paper's Algorithm 2); off, the fixed list. `learner.open_outputs`: the LIDAR may be an
 affordance's output (item 2)."""
 
 from __future__ import annotations

@@ -1,5 +1,5 @@
 """p_A of every object-moving affordance learns from all of them (`learner.p_a_pooled`), and
-is then right on objects of sizes and shades it never saw (issue 16, item 6).
+is then right on objects of sizes and shades it never saw (the fidelity work, item 6).
 
 A fixed object stops the robot: pushing it in vain leaves the robot where it was, so the row is
 outside the domain of `robot.position → target.position` (its input did not change) and that
