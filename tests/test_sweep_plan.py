@@ -4,7 +4,12 @@ nothing stored changed)."""
 from __future__ import annotations
 
 import json
+import os
+import socket
 import sqlite3
+import subprocess
+import sys
+from pathlib import Path
 
 import pytest
 
@@ -14,6 +19,7 @@ from hadim_cli.sweep.plan import RunKind, build_plan, parse_grid, parse_seeds
 from store.api import Store
 
 SMALL = ["--set", "world.episode_length=50", "-n", "100", "--eval-every", "0"]
+ROOT = Path(__file__).resolve().parents[1]
 
 
 def test_seeds_and_grid_syntax():
@@ -73,6 +79,33 @@ def test_bad_input_is_one_line_and_creates_nothing(runner, tmp_path, args, match
 def test_unusable_stores_refused(runner, tmp_path):
     assert "not an in-memory" in _refused(runner, "sweep", "x", "--store", ":memory:")
     assert "cannot use store URL" in _refused(runner, "sweep", "x", "--store", "mongodb://h/db")
+
+
+def test_unreachable_servers_are_one_line_and_create_nothing(runner, tmp_path):
+    pytest.importorskip("ray")
+    with socket.socket() as probe:  # a port nothing listens on
+        probe.bind(("127.0.0.1", 0))
+        port = probe.getsockname()[1]
+    store = tmp_path / "s.db"
+    # a subprocess with a time limit: Ray's own connect retries such an address for minutes
+    done = subprocess.run(
+        [sys.executable, "-m", "hadim_cli.app", "sweep", "x", *SMALL, "--address",
+         f"127.0.0.1:{port}", "--store", str(store)], cwd=tmp_path, capture_output=True,
+        text=True, timeout=120, env=dict(os.environ, PYTHONPATH=str(ROOT)))
+    assert done.returncode == 2, done.stderr
+    assert done.stderr.strip().splitlines() == [
+        f"error: cannot reach the Ray cluster at 127.0.0.1:{port}: Connection refused"]
+    assert not store.exists()
+    server = f"postgresql://nobody@/hadim?host={tmp_path}&port={port}"
+    out = tmp_path / "report"
+    for args in (["sweep", "x", *SMALL[:2], "--store", server],
+                 ["report", "x", "--out", out, "--store", server]):
+        assert _refused(runner, *args).startswith("error: cannot open the store at")
+    assert _refused(runner, "report", "x", "--out", out, "--store", "mongodb://h/db"
+                    ).startswith("error: cannot use store URL mongodb://h/db")
+    assert _refused(runner, "report", "x", "--out", out, "--store", store
+                    ) == f"error: no store at {store} (train a run first, or pass --store)"
+    assert not store.exists() and not out.exists()
 
 
 def test_sweep_name_in_use_with_other_settings_changes_nothing(runner, tmp_path):

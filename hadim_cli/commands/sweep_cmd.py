@@ -91,6 +91,8 @@ def sweep(
         import ray  # noqa: F401
     except ImportError:
         raise HadimError("hadim sweep needs Ray: pip install 'hadim[sweep]'") from None
+    if address:
+        driver.check_address(address)  # before the store: a refused sweep creates nothing
     from store.api import Store
 
     with Store.open(url) as st:

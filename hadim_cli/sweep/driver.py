@@ -10,15 +10,19 @@ from __future__ import annotations
 
 import logging
 import os
+import socket
 from collections.abc import Callable
 from dataclasses import dataclass, field
 
+from hadim_cli.errors import HadimError
 from hadim_cli.sweep.plan import SweepEntry, SweepPlan
 from hadim_cli.sweep.worker import EntryResult, run_entry
 
 # A task whose worker process dies (killed, out of memory) is retried from its checkpoint.
 TASK_RETRIES = 3
 POLL_S = 0.5
+# Ray's own connect retries an address nothing listens on for minutes: probe it first.
+CONNECT_TIMEOUT_S = 5.0
 
 
 @dataclass(frozen=True)
@@ -68,14 +72,34 @@ def unfinished(store, plan: SweepPlan) -> list[SweepEntry]:
                     and stored[e.run].iterations >= e.iterations)]
 
 
+def check_address(address: str) -> None:
+    """Refuse a cluster address (HOST:PORT or ray://HOST:PORT) that nothing answers on; other
+    forms (`auto`) are Ray's to resolve."""
+    host, sep, port = address.removeprefix("ray://").rpartition(":")
+    if not sep or not host or not port.isdigit():
+        return
+    try:
+        with socket.create_connection((host.strip("[]"), int(port)), CONNECT_TIMEOUT_S):
+            pass
+    except OSError as exc:
+        raise HadimError(f"cannot reach the Ray cluster at {address}: "
+                         f"{exc.strerror or exc}") from None
+
+
 def start_ray(address: str | None, num_cpus: int | None) -> None:
     import ray
 
-    if address:
-        ray.init(address=address, logging_level=logging.WARNING, log_to_driver=False)
-    else:
-        ray.init(num_cpus=num_cpus or os.cpu_count() or 1, include_dashboard=False,
-                 logging_level=logging.WARNING, log_to_driver=False)
+    try:
+        if address:
+            ray.init(address=address, logging_level=logging.WARNING, log_to_driver=False)
+        else:
+            ray.init(num_cpus=num_cpus or os.cpu_count() or 1, include_dashboard=False,
+                     logging_level=logging.WARNING, log_to_driver=False)
+    except (ConnectionError, ValueError, RuntimeError) as exc:
+        lines = str(exc).strip().splitlines() or [type(exc).__name__]
+        what = (f"connect to the Ray cluster at {address}" if address
+                else "start a local Ray instance")
+        raise HadimError(f"cannot {what}: {lines[0]}") from None
 
 
 def _task(store_url: str, entry: SweepEntry, flag) -> EntryResult:
