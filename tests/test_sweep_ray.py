@@ -137,6 +137,13 @@ def test_report_from_the_sweep(four_runs, runner, tmp_path):
     assert refused.stderr.strip() == f"error: no sweep named 'nope' in {four_runs} (sweeps: four)"
 
 
+def _default_sigint() -> None:
+    """In the sweep's process before it starts: a shell's background job (`pytest &`, a CI
+    script) ignores SIGINT and its children inherit that, so the Ctrl-C the test sends would be
+    lost and the sweep would run to its end."""
+    signal.signal(signal.SIGINT, signal.SIG_DFL)
+
+
 def _start(tmp_path: Path, name: str, seeds: str, ray_address: list[str],
            store: Path | str | None = None) -> tuple[subprocess.Popen, Path | str]:
     store = store or tmp_path / "s.db"
@@ -144,7 +151,7 @@ def _start(tmp_path: Path, name: str, seeds: str, ray_address: list[str],
     proc = subprocess.Popen(
         [sys.executable, "-m", "hadim_cli.app", "sweep", name, "--seeds", seeds, "-n", str(LONG),
          *SMALL, *ray_address, "--store", str(store)], cwd=tmp_path, env=env, text=True,
-        stdout=subprocess.PIPE, stderr=subprocess.PIPE)
+        stdout=subprocess.PIPE, stderr=subprocess.PIPE, preexec_fn=_default_sigint)
     return proc, store
 
 
