@@ -3,6 +3,7 @@ re-run that skips them, a killed worker's run retried from its checkpoint, and C
 
 The sweeps join one local Ray head that this module starts (`ray_cluster.py`): starting Ray is
 most of a small sweep's cost, and the five sweeps here used to start five instances.
+Every sweep that starts tasks runs in a process of its own (`_sweep`, `_start`).
 tests/baselines/test_sweep.py runs its sweep on a local instance of its own, the default
 without --address. Runs are a few 50-action episodes.
 """
@@ -74,13 +75,14 @@ def reference(tmp_path_factory) -> str:
 
 @pytest.fixture(scope="module")
 def four_runs(tmp_path_factory, ray_address) -> Path:
-    store = tmp_path_factory.mktemp("sweep") / "s.db"
-    result = CliRunner().invoke(app, [
-        "sweep", "four", "--seeds", "0-1", "-c", str(ROOT / "configs/random-only.toml"),
+    where = tmp_path_factory.mktemp("sweep")
+    store = where / "s.db"
+    done = _sweep(where, [
+        "four", "--seeds", "0-1", "-c", str(ROOT / "configs/random-only.toml"),
         "-c", str(ROOT / "configs/goal-babbling-only.toml"), "-n", "100", *SMALL,
         *ray_address, "--eval-every", "100", "--set", 'evaluation.tasks=["move-robot"]',
         "--store", str(store)])
-    assert result.exit_code == 0, (result.output, result.exception)
+    assert done.returncode == 0, (done.stdout, done.stderr)
     return store
 
 
@@ -142,6 +144,16 @@ def _default_sigint() -> None:
     script) ignores SIGINT and its children inherit that, so the Ctrl-C the test sends would be
     lost and the sweep would run to its end."""
     signal.signal(signal.SIGINT, signal.SIG_DFL)
+
+
+def _sweep(cwd: Path, args: list[str]) -> subprocess.CompletedProcess:
+    """`hadim sweep ARGS` in a process of its own: a Ray driver in this test process would
+    inherit what earlier tests' Ray left in it (in the full suite, after
+    tests/baselines/test_sweep.py's in-process local instance, the tasks of a sweep run here
+    were cancelled: "The actor never ran")."""
+    return subprocess.run([sys.executable, "-m", "hadim_cli.app", "sweep", *args], cwd=cwd,
+                          env=dict(os.environ, PYTHONPATH=str(ROOT)), text=True,
+                          capture_output=True, timeout=600)
 
 
 def _start(tmp_path: Path, name: str, seeds: str, ray_address: list[str],
@@ -210,8 +222,8 @@ def test_ctrl_c_pauses_every_run_checkpointed_and_a_rerun_finishes(
             assert run.status == "paused" and run.lock is None, run
             assert 0 < run.iterations < LONG
             assert st.checkpoint_iterations(run.name)[-1] == run.iterations
-    again = CliRunner().invoke(app, ["sweep", "stop", "--seeds", "3-4", "-n", str(LONG), *SMALL,
-                                     *ray_address, "--store", str(store)])
-    assert again.exit_code == 0, (again.output, again.exception)
+    again = _sweep(tmp_path, ["stop", "--seeds", "3-4", "-n", str(LONG), *SMALL, *ray_address,
+                              "--store", str(store)])
+    assert again.returncode == 0, again.stderr
     assert again.stdout.count(f"finished\t{LONG}/{LONG}") == 2
     assert _digest(store, "stop-default-s3") == reference
