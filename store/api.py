@@ -398,7 +398,7 @@ class Store:
         session.flush()
         _insert(session, CheckpointItem, [
             {"checkpoint_id": row.id, "key": r.key, "kind": r.kind, "data": r.data,
-             "text": r.text, "prefix": r.prefix}
+             "text": r.text, "prefix": r.prefix, "skip": r.skip}
             for r in encoded.rows
         ])
         encoded.memory.checkpoint_id = row.id
@@ -553,7 +553,7 @@ class Store:
             )
             for item in items:
                 levels[item.checkpoint_id][item.key] = deltas.ItemRow(
-                    item.key, item.kind, item.data, item.text, item.prefix)
+                    item.key, item.kind, item.data, item.text, item.prefix, item.skip)
             arrays, texts = deltas.resolve([levels[c.id] for c in chain])
             return Checkpoint(
                 row.iteration, row.episode_index, _aware(row.created_at), arrays, texts

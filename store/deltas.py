@@ -4,7 +4,11 @@ A checkpoint is a set of items, key → array or JSON value. Most of a learner's
 appending (rows of data, goals, a timeline), so an item whose previous value is a prefix of its
 new one (the first rows of an array, the first elements of a JSON list, byte for byte) is
 written as that prefix's length and the rows after it; an unchanged item is a length and no
-data. Everything else is written whole. A checkpoint written so names the checkpoint it
+data. A bounded first-in-first-out buffer (p_A's replay once full: its oldest rows dropped,
+new ones appended) keeps a window of its previous value: an array whose new first rows are
+its previous value's rows from some row `skip` on is written as `skip`, the window's length
+and the rows after it (schema 3), so a full buffer costs its new rows, not all of them.
+Everything else is written whole. A checkpoint written so names the checkpoint it
 continues (`base_iteration`); one that names none is a full snapshot.
 
 Every `snapshot_every`-th checkpoint a `Store` writes for a run is a full snapshot (and so is
@@ -36,13 +40,15 @@ DEFAULT_SNAPSHOT_EVERY = 50
 
 @dataclass
 class ItemRow:
-    """One checkpoint item as stored: `prefix` None means `data`/`text` is the whole value."""
+    """One checkpoint item as stored: `prefix` None means `data`/`text` is the whole value;
+    else the value is the base's rows `skip` … `skip + prefix` (skip None: 0), then `data`."""
 
     key: str
     kind: str
     data: bytes | None
     text: str | None
     prefix: int | None
+    skip: int | None = None
 
     @property
     def size(self) -> int:
@@ -75,12 +81,34 @@ class Encoded:
     delta: bool
 
 
-def _array_prefix(new: np.ndarray, old: np.ndarray | None) -> int | None:
+MAX_SKIP_CANDIDATES = 64
+"""Rows of the previous value equal to the new first row that are tried as a window's start
+(a buffer of many identical rows needs the first only; this bounds a pathological search)."""
+
+
+def _array_window(new: np.ndarray, old: np.ndarray | None) -> tuple[int, int] | None:
+    """(skip, keep) such that `new[:keep]` is `old[skip:skip + keep]` byte for byte, with
+    `skip + keep` = len(old) (the previous value's end): 0 and len(old) if it is a prefix,
+    else the smallest skip ≥ 1 that gives a non-empty window; None if there is none."""
     if (old is None or new.ndim == 0 or old.ndim != new.ndim or old.dtype != new.dtype
-            or old.shape[1:] != new.shape[1:] or old.shape[0] > new.shape[0]):
+            or old.shape[1:] != new.shape[1:]):
         return None
-    head = np.ascontiguousarray(new[:old.shape[0]])
-    return old.shape[0] if head.tobytes() == np.ascontiguousarray(old).tobytes() else None
+    n_old, n_new = old.shape[0], new.shape[0]
+    width = int(np.prod(new.shape[1:], dtype=np.int64))
+    old_b = np.ascontiguousarray(old).reshape(n_old, width).view(np.uint8)
+    new_b = np.ascontiguousarray(new).reshape(n_new, width).view(np.uint8)
+    if n_old <= n_new and old_b.tobytes() == new_b[:n_old].tobytes():
+        return 0, n_old
+    if n_old < 2 or n_new == 0 or old_b.shape[1] == 0:
+        return None
+    # A window starts at a row of old equal to new's first, and ends at old's end.
+    starts = np.flatnonzero((old_b[1:] == new_b[0]).all(axis=1)) + 1
+    starts = starts[n_old - starts <= n_new][:MAX_SKIP_CANDIDATES]
+    for skip in starts.tolist():
+        keep = n_old - skip
+        if old_b[skip:].tobytes() == new_b[:keep].tobytes():
+            return skip, keep
+    return None
 
 
 def encode(arrays: Mapping[str, np.ndarray], texts: Mapping[str, Any], *, compress: bool,
@@ -94,14 +122,15 @@ def encode(arrays: Mapping[str, np.ndarray], texts: Mapping[str, Any], *, compre
     mem_texts: dict[str, str] = {}
     for key, value in arrays.items():
         value = np.asarray(value)
-        prefix = None if base is None else _array_prefix(value, base.arrays.get(key))
-        if prefix is None:
+        window = None if base is None else _array_window(value, base.arrays.get(key))
+        if window is None:
             rows.append(ItemRow(key, kind, codecs.encode_array(value, compress=compress), None,
                                 None))
         else:
-            tail = value[prefix:]
+            skip, keep = window
+            tail = value[keep:]
             data = codecs.encode_array(tail, compress=compress) if tail.shape[0] else None
-            rows.append(ItemRow(key, kind, data, None, prefix))
+            rows.append(ItemRow(key, kind, data, None, keep, skip or None))
         mem_arrays[key] = value.copy()
     for key, value in texts.items():
         if isinstance(value, list | tuple):
@@ -159,20 +188,24 @@ def resolve(chain: Sequence[Mapping[str, ItemRow]]) -> tuple[dict[str, np.ndarra
 
 def _resolve_key(chain: Sequence[Mapping[str, ItemRow]], key: str) -> Any:
     parts: list[Any] = []
-    limit: int | None = None  # rows still wanted from the level below
+    # The rows [lo, hi) of this level's value are wanted (hi None: to its end). A delta's
+    # value is its base's rows [skip, skip + prefix), then its tail.
+    lo, hi = 0, None
     for level in range(len(chain) - 1, -1, -1):
         row = chain[level].get(key)
         if row is None:
             raise StoreError(f"corrupt checkpoint chain: item {key!r} has no base")
-        start = 0 if row.prefix is None else row.prefix
-        want = None if limit is None else max(0, limit - start)
-        if want != 0 or row.prefix is None:  # a full value is read even if empty (its dtype)
+        if row.prefix is None:  # a full value is read even if none is wanted (its dtype)
+            tail = _tail_value(row)
+            parts.append(tail if (lo, hi) == (0, None) else tail[lo:hi])
+            break
+        keep, skip = row.prefix, row.skip or 0
+        if hi is None or hi > keep:
             tail = _tail_value(row)
             if tail is not None:
-                parts.append(tail if want is None else tail[:want])
-        if row.prefix is None:
-            break
-        limit = row.prefix if limit is None else min(limit, row.prefix)
+                parts.append(tail[max(lo, keep) - keep:None if hi is None else hi - keep])
+        top = keep if hi is None else min(hi, keep)
+        lo, hi = (skip + lo, skip + top) if lo < top else (0, 0)
     else:
         raise StoreError(f"corrupt checkpoint chain: item {key!r} has no full value")
     parts.reverse()

@@ -149,9 +149,11 @@ class CheckpointItem(Base):
     kind: Mapped[str] = mapped_column(String(16))  # 'npy', 'npy+zlib' or 'json'
     data: Mapped[bytes | None] = mapped_column(LargeBinary)  # arrays
     text: Mapped[str | None] = mapped_column(Text)  # JSON
-    # NULL: data/text is the whole value; else the value is the first `prefix` rows (list
-    # items) of the base checkpoint's item of the same key, followed by data/text (if any).
+    # NULL: data/text is the whole value; else the value is `prefix` rows (list items) of the
+    # base checkpoint's item of the same key, from its row `skip` on (NULL: its first rows),
+    # followed by data/text (if any).
     prefix: Mapped[int | None] = mapped_column(Integer, nullable=True)
+    skip: Mapped[int | None] = mapped_column(Integer, nullable=True)
 
 
 class EvaluationRow(Base):

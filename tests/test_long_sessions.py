@@ -16,7 +16,7 @@ from hadim_cli import runs
 from hadim_cli.app import app
 from hadim_cli.config import load_config
 from hadim_cli.session import Session
-from store import Store
+from store import SCHEMA_VERSION, Store
 
 SEED = 5
 N = 300
@@ -85,6 +85,49 @@ def test_resume_and_fork_are_exact_across_snapshot_boundaries(runner, tmp_path, 
                 assert value.tobytes() == y.arrays[key].tobytes(), key
 
 
+def test_a_full_p_a_replay_is_written_as_its_new_rows_and_resumes_exactly(runner, tmp_path,
+                                                                          monkeypatch):
+    """p_A's replay is first-in-first-out: once full, each example added drops the oldest.
+    With a replay of 2 examples it is full within the first p_A examples; a delta checkpoint
+    then writes the examples added since its base (a window of the base's value, then them;
+    whole only when all of it is new), and a resume or fork across such deltas is exact."""
+    from hadim_cli.learner.classifier import VisualClassifier
+    from store import codecs
+
+    monkeypatch.setitem(VisualClassifier.__init__.__kwdefaults__, "replay_size", 2)
+    monkeypatch.setenv(runs.SNAPSHOT_ENV, "4")
+    store, n = tmp_path / "s.sqlite", 500
+    whole = train(runner, store, n)
+    con = sqlite3.connect(store)
+    try:
+        items = con.execute(
+            "SELECT c.iteration, c.base_iteration, i.key, i.prefix, i.skip, i.data, i.kind "
+            "FROM checkpoint_items i JOIN checkpoints c ON c.id = i.checkpoint_id "
+            "JOIN runs r ON r.id = c.run_id WHERE r.name = ? AND i.key LIKE '%.replay.%' "
+            "AND c.base_iteration IS NOT NULL", (whole,)).fetchall()
+    finally:
+        con.close()
+    windows = 0
+    with Store.open(store) as st:
+        for it, base, key, _prefix, skip, data, kind in items:
+            column = 0 if key.endswith("positive") else 1
+            counters = key.rsplit(".replay.", 1)[0] + ".counters"
+            before = st.checkpoint(whole, base).arrays.get(counters)
+            if before is None:  # p_A new since the base: written whole
+                continue
+            added = [int(before[column]), int(st.checkpoint(whole, it).arrays[counters][column])]
+            written = 0 if data is None else codecs.decode_array(data, kind).shape[0]
+            assert written <= min(2, added[1] - added[0]), (it, key)  # whole if all new
+            windows += skip is not None
+    assert windows >= 2  # replays full and changed between two checkpoints
+    half = train(runner, store, 250)
+    ok(runner, "resume", half, "--iterations", n, "--eval-every", 0, "--store", store)
+    child = ok(runner, "fork", whole, "--at", 400, "--store", store).stdout.strip()  # a delta
+    ok(runner, "resume", child, "--iterations", n, "--eval-every", 0, "--store", store)
+    assert len({show(runner, store, r)["dataset_sha256"] for r in (whole, half, child)}) == 1
+    assert affordances(runner, store, whole) == affordances(runner, store, child)
+
+
 def test_a_bad_snapshot_interval_is_one_error_line(runner, tmp_path, monkeypatch):
     monkeypatch.setenv(runs.SNAPSHOT_ENV, "0")
     result = runner.invoke(app, ["train", "--iterations", "50", "--store",
@@ -112,8 +155,8 @@ def test_a_schema_1_store_opens_and_resumes_exactly(runner, tmp_path):
     assert affordances(runner, store, "run-1") == affordances(runner, store, fresh)
     con = sqlite3.connect(store)
     try:
-        assert con.execute(
-            "SELECT value FROM meta WHERE key = 'schema_version'").fetchone() == ("2",)
+        assert con.execute("SELECT value FROM meta WHERE key = 'schema_version'"
+                           ).fetchone() == (str(SCHEMA_VERSION),)
         keys = {k for (k,) in con.execute(
             "SELECT i.key FROM checkpoint_items i JOIN checkpoints c ON c.id = i.checkpoint_id "
             "JOIN runs r ON r.id = c.run_id WHERE r.name = 'run-1' AND c.iteration = 100")}

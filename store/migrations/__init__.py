@@ -18,7 +18,7 @@ import re
 from pathlib import Path
 
 APPLICATION = "hadim"
-SCHEMA_VERSION = 2
+SCHEMA_VERSION = 3
 # alembic's own table (one row, the revision id); the name alembic uses by default.
 VERSION_TABLE = "alembic_version"
 SCRIPT_LOCATION = Path(__file__).resolve().parent

@@ -25,6 +25,10 @@ def _state(i: int) -> tuple[dict[str, np.ndarray], dict]:
     }
     if i % 3 == 0:
         arrays["sometimes"] = np.arange(i + 1)
+    # A first-in-first-out buffer of 12 rows, 5 new per checkpoint (full from the third on),
+    # with repeated rows (several candidate windows) and none new at every fourth checkpoint.
+    stream = np.array([[j // 3, -0.0 if j % 7 == 0 else 0.0] for j in range(5 * (i + 1))])
+    arrays["fifo"] = stream[:len(stream) - 5 * (i % 4 == 3)][-12:]
     arrays["rows"][:1] = i // 4  # a change at the front every 4 checkpoints: written whole
     texts = {"events": [{"i": j, "z": -0.0 if j == i else 0.0} for j in range(i + 1)],
              "meta": {"i": i}, "flat": [1, 2] if i % 2 else [1]}
@@ -163,3 +167,29 @@ def test_delta_bytes_do_not_grow_with_the_run(tmp_path):
     assert len(fulls) == 4 and fulls == sorted(fulls) and fulls[-1] > 2 * fulls[1]
     assert max(deltas) < 1.2 * min(deltas)
     assert max(deltas) < fulls[1]
+
+
+def test_a_full_fifo_buffer_costs_its_new_rows(tmp_path):
+    """A buffer that drops its oldest rows as new ones come (p_A's replay once full) is
+    written as a window of its previous value and its new rows: its deltas do not hold it
+    whole, and it reads back exactly (every checkpoint, across full snapshots)."""
+    path = tmp_path / "s.db"
+    rng = np.random.default_rng(0)
+    stream = rng.normal(size=(30 * 25, 4))
+    with Store.open(path, snapshot_every=8, compress=False) as store:
+        store.create_run(config={}, seed=1, name="r")
+        for i in range(25):
+            store.write_episode("r", EpisodeWrite(
+                index=i, first_iteration=i, actions=np.zeros((1, 2)),
+                contexts=np.zeros((1, 3)), outcomes=np.zeros((1, 3)),
+                checkpoint_arrays={"replay": stream[:30 * (i + 1)][-200:]},
+                checkpoint_json={}))
+        for i in range(25):
+            assert store.checkpoint("r", i + 1).arrays["replay"].tobytes() == \
+                stream[:30 * (i + 1)][-200:].tobytes()
+    sizes = _checkpoint_bytes(path)
+    deltas = [size for full, size in sizes if not full]
+    fulls = [size for full, size in sizes if full]
+    row = stream[:1].nbytes
+    assert all(size < 30 * row + 200 for size in deltas)  # 30 rows and an npy header
+    assert min(fulls[1:]) > 200 * row

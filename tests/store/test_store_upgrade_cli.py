@@ -59,7 +59,7 @@ def test_a_schema_2_store_from_before_alembic_upgrades_reads_and_resumes_exactly
                                                                                  tmp_path):
     store = copy_fixture("store_v2.sqlite", tmp_path)
     out = ok(runner, "store", "upgrade", "--store", store)
-    assert out.splitlines()[0] == f"{store}: schema version 2"
+    assert out.splitlines()[0] == f"{store}: schema version 2 -> {migrations.SCHEMA_VERSION}"
     assert "version table was added" in out
     assert "up to date" in ok(runner, "store", "upgrade", "--store", store)
     listed = ok(runner, "runs", "list", "--store", store)
@@ -110,9 +110,10 @@ def test_a_schema_1_store_on_postgresql_upgrades_reads_and_resumes_as_on_sqlite(
     _pre_alembic_schema_1_on(postgres_url, sqlite)
     for store in (sqlite, postgres_url):
         out = ok(runner, "store", "upgrade", "--dry-run", "--store", store)
-        assert "schema version 1 -> 2 (dry run: nothing written)" in out
+        assert f"schema version 1 -> {migrations.SCHEMA_VERSION} (dry run: nothing written)" in out
         out = ok(runner, "store", "upgrade", "--store", store)
-        assert "schema version 1 -> 2" in out.splitlines()[0] and "0002 " in out
+        assert f"schema version 1 -> {migrations.SCHEMA_VERSION}" in out.splitlines()[0]
+        assert "0002 " in out and "0003 " in out
         assert "run-1" in ok(runner, "runs", "list", "--store", store)
     assert show(runner, postgres_url, "run-1")["dataset_sha256"] == \
         show(runner, sqlite, "run-1")["dataset_sha256"]
@@ -155,21 +156,25 @@ def test_a_newer_store_is_refused_by_every_command_unchanged(runner, tmp_path, a
 
 
 def test_a_manual_revision_is_one_line_until_store_upgrade(runner, tmp_path, monkeypatch):
+    head = migrations.SCHEMA_VERSION
+    new, prev = migrations.revision_id(head + 1), migrations.revision_id(head)
     folder = tmp_path / "versions"
     folder.mkdir()
-    (folder / "0003_rebuild.py").write_text(
-        '"""Rebuild runs."""\nfrom alembic import op\nimport sqlalchemy as sa\n'
-        'revision = "0003"\ndown_revision = "0002"\nbranch_labels = None\ndepends_on = None\n'
-        'automatic = False\n\n\ndef upgrade():\n'
+    (folder / f"{new}_rebuild.py").write_text(
+        f'"""Rebuild runs."""\nfrom alembic import op\nimport sqlalchemy as sa\n'
+        f'revision = "{new}"\ndown_revision = "{prev}"\nbranch_labels = None\n'
+        'depends_on = None\nautomatic = False\n\n\ndef upgrade():\n'
         "    with op.batch_alter_table('runs', recreate='always') as batch:\n"
         "        batch.add_column(sa.Column('notes', sa.Text))\n")
     monkeypatch.setattr(migrations, "VERSION_LOCATIONS", [*migrations.VERSION_LOCATIONS, folder])
-    monkeypatch.setattr(migrations, "SCHEMA_VERSION", 3)
+    monkeypatch.setattr(migrations, "SCHEMA_VERSION", head + 1)
     store = copy_fixture("store_v2.sqlite", tmp_path)
     line = refused(runner, "runs", "list", "--store", store)
-    assert f"run `hadim store upgrade --store {store}`" in line and "0003 (Rebuild runs.)" in line
+    assert f"run `hadim store upgrade --store {store}`" in line and f"{new} (Rebuild runs.)" in line
     out = ok(runner, "store", "upgrade", "--store", store)
-    assert out.splitlines()[:2] == [f"{store}: schema version 2 -> 3", "  0003 Rebuild runs."]
+    lines = out.splitlines()
+    assert lines[0] == f"{store}: schema version 2 -> {head + 1}"
+    assert lines[head - 1] == f"  {new} Rebuild runs."  # after the revisions 0003 … head
     assert show(runner, store, "run-2")["dataset_sha256"] == V2_RUN_2  # the fork's parent row
     assert show(runner, store, "run-2")["parent"] == "run-1"           # survived the rebuild
 
@@ -184,10 +189,9 @@ def test_store_upgrade_of_no_store_is_one_line(runner, tmp_path, where):
 
 def test_store_check_reads_old_stores_without_upgrading_them(runner, tmp_path):
     v2, v1 = copy_fixture("store_v2.sqlite", tmp_path), copy_fixture("store_v1.sqlite", tmp_path)
-    out = ok(runner, "store", "check", "--store", v2)
-    assert "run-1: readable (100 iterations, 2 checkpoints)" in out
-    out = ok(runner, "store", "check", "--store", v1)
-    assert "runs not read: " in out and f"hadim store upgrade --store {v1}" in out
+    for old in (v2, v1):  # schema 3 added a column: a schema-2 store is read once upgraded
+        out = ok(runner, "store", "check", "--store", old)
+        assert "runs not read: " in out and f"hadim store upgrade --store {old}" in out
     for store, version in ((v2, "2"), (v1, "1")):
         con = sqlite3.connect(store)
         tables = {t for (t,) in con.execute("SELECT name FROM sqlite_master WHERE type='table'")}
@@ -195,3 +199,8 @@ def test_store_check_reads_old_stores_without_upgrading_them(runner, tmp_path):
             (version,)
         con.close()
         assert migrations.VERSION_TABLE not in tables
+    upgraded = tmp_path / "upgraded.sqlite"
+    shutil.copyfile(v2, upgraded)
+    ok(runner, "store", "upgrade", "--store", upgraded)
+    out = ok(runner, "store", "check", "--store", upgraded)
+    assert "run-1: readable (100 iterations, 2 checkpoints)" in out
