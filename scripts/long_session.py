@@ -368,6 +368,7 @@ def time_restore(args: argparse.Namespace) -> None:
 
     session.world.step = timed
     start = session.iteration
+    d = session.learner.dataset
     c0, w0 = time.process_time(), time.perf_counter()
     session.run(start + max(args.then, 1))  # at least one episode
     cpu, wall = time.process_time() - c0, time.perf_counter() - w0
@@ -378,7 +379,28 @@ def time_restore(args: argparse.Namespace) -> None:
                       "restore_to_first_iteration_s": round(first[0] - t1, 2),
                       "then_iterations": done, "then_wall_s": round(wall, 2),
                       "then_cpu_s": round(cpu, 2),
-                      "iterations_per_cpu_s": round(done / max(cpu, 1e-9), 1)}))
+                      "iterations_per_cpu_s": round(done / max(cpu, 1e-9), 1),
+                      # D's digest (Store.dataset_sha256's) at the end, and of the new rows
+                      # alone: the same code gives the same rows, whatever the load.
+                      "dataset_sha256": _digest(d.actions, d.contexts, d.outcomes),
+                      "new_rows_sha256": _digest(d.actions[start:], d.contexts[start:],
+                                                 d.outcomes[start:])}))
+
+
+def _digest(*arrays) -> str:
+    """`Store.dataset_sha256` of these arrays of D (actions, contexts, outcomes)."""
+    import hashlib
+
+    import numpy as np
+
+    from store.api import _DIGEST_PREFIX, DatasetArrays
+
+    digest = hashlib.sha256(_DIGEST_PREFIX)
+    for key, array in zip(DatasetArrays._fields, arrays, strict=True):
+        array = np.ascontiguousarray(array)
+        digest.update(f"{key}|{array.dtype.str}|{array.shape}\n".encode())
+        digest.update(array.tobytes())
+    return digest.hexdigest()
 
 
 def main() -> None:

@@ -118,6 +118,13 @@ def test_restore_is_timed_from_the_asked_checkpoint_and_writes_nothing(sampled, 
     assert out["restore_cpu_s"] > 0
     assert out["then_cpu_s"] > 0 and out["iterations_per_cpu_s"] > 0
     assert state() == before
+    # The rows it made are the run's own rows from 200 to 300 (the same code, resumed).
+    from store import Store
+
+    with Store.open(sampled, create=False) as store:
+        assert out["dataset_sha256"] == store.dataset_sha256("long", 300)
+        d = store.dataset("long", 300)
+    assert out["new_rows_sha256"] == long_session._digest(*(a[200:] for a in d))
 
 
 def test_a_report_of_a_run_not_in_the_store_is_one_error_line(sampled, monkeypatch):

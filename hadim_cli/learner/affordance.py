@@ -10,6 +10,7 @@ from __future__ import annotations
 import weakref
 from collections.abc import Callable
 from dataclasses import dataclass, field
+from typing import Any
 
 import numpy as np
 
@@ -89,11 +90,17 @@ change when rows are added (a refit makes a new model)."""
 def per_model(model: Model, key: tuple, compute: Callable[[np.ndarray], float]) -> float:
     """`compute(outcomes of model)`, computed again only when the model has new rows: the
     planner asks for a step size many times per learning episode, and each pass is O(rows)."""
+    return per_model_rows(model, key, lambda m: compute(m.data()[2]))
+
+
+def per_model_rows(model: Model, key: tuple, compute: Callable[[Model], Any]) -> Any:
+    """`compute(model)` for a figure of the model's rows (`key` names it and every parameter
+    it depends on), computed again only when the model has new rows."""
     memo = _BY_MODEL.setdefault(model, {})
     hit = memo.get(key)
     if hit is not None and hit[0] == model.n:
         return hit[1]
-    value = compute(model.data()[2])
+    value = compute(model)
     memo[key] = (model.n, value)
     return value
 

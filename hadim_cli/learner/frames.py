@@ -17,7 +17,7 @@ Which relation frames an affordance: `relation_frame` (docs/algorithm.md, "Relat
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from typing import Any
 
@@ -206,19 +206,60 @@ class FramedModel:
                                                         self._centred))
         return self._scale_cache[1]
 
-    def turned(self, *, along: np.ndarray | None = None, at: np.ndarray | None = None
-               ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    def turned(self, *, along: np.ndarray | None = None, at: np.ndarray | None = None,
+               rows: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """The rows (X, C, Y) in room coordinates, each scene turned about itself: so that its
         outcome points `along` a direction (rows with a null outcome stay as they are), or so
         that its framing relation has the bearing of the one in the context `at`. Each row
         reads as it would have there: where a push along `along` is made from, which rows
-        act from near the relation of `at`."""
+        act from near the relation of `at`. With `rows` (indices), those rows only: each row
+        is turned on its own, so they are the same values, bit for bit, as those rows of the
+        whole (a pass over all rows costs O(n) per call)."""
+        x, c, y = self.data()
+        if rows is not None:
+            x, c, y = x[rows], c[rows], y[rows]
+        turn = self._turns(along, at, y, c)
+        if turn is None:
+            return x, c, y
+        return (*self._turn_rows(x, c, turn), self._vector(y, turn, self.frame.y, back=True))
+
+    def turned_where(self, keep: Callable[[np.ndarray], np.ndarray], *,
+                     along: np.ndarray | None = None, at: np.ndarray | None = None
+                     ) -> tuple[np.ndarray | None, np.ndarray, np.ndarray, np.ndarray]:
+        """(indices, X, C, Y): the rows whose turned outcome `keep` (a mask of Y's rows)
+        accepts, turned as `turned` turns them — all rows (indices None) if it accepts none.
+        The outcomes are turned for every row, the inputs and contexts for those rows only."""
+        x, c, y = self.data()
+        turn = self._turns(along, at, y, c)
+        if turn is not None:
+            y = self._vector(y, turn, self.frame.y, back=True)
+        mask = keep(y)
+        rows = np.flatnonzero(mask) if mask.any() else None
+        if rows is not None:
+            x, c, y = x[rows], c[rows], y[rows]
+            turn = None if turn is None else turn[rows]
+        if turn is None:
+            return rows, x, c, y
+        return (rows, *self._turn_rows(x, c, turn), y)
+
+    def _turn_rows(self, x: np.ndarray, c: np.ndarray, turn: np.ndarray
+                   ) -> tuple[np.ndarray, np.ndarray]:
+        """Inputs and contexts of rows turned by `turn` (one unit vector per row)."""
+        c = c.copy()
+        for i in (self.frame.axis, *self.frame.vectors):
+            s = self._starts[i]
+            c[:, s:s + 2] = _unturn(c[:, s:s + 2], turn)
+        return self._vector(x, turn, self.frame.x, back=True), c
+
+    def _turns(self, along: np.ndarray | None, at: np.ndarray | None, y: np.ndarray,
+               c: np.ndarray) -> np.ndarray | None:
+        """The turn of each row (outcomes `y`, contexts `c`) as a unit vector, or None when
+        rows are not turned (along an outcome that is not a vector of the frame)."""
         if (along is None) == (at is None):
             raise ValueError("turn the rows either along an outcome or at a context")
-        x, c, y = self.data()
         if along is not None:
             if not self.frame.y:
-                return x, c, y
+                return None
             want, have = np.asarray(along, dtype=float), y
         else:
             s = self._starts[self.frame.axis]
@@ -232,12 +273,7 @@ class FramedModel:
             h = have[ok] / norm_have[ok, None]
             w = want / norm_want
             turn[ok] = np.c_[w[0] * h[:, 0] + w[1] * h[:, 1], w[1] * h[:, 0] - w[0] * h[:, 1]]
-        c = c.copy()
-        for i in (self.frame.axis, *self.frame.vectors):
-            s = self._starts[i]
-            c[:, s:s + 2] = _unturn(c[:, s:s + 2], turn)
-        return (self._vector(x, turn, self.frame.x, back=True), c,
-                self._vector(y, turn, self.frame.y, back=True))
+        return turn
 
     # ------------------------------------------------------------------ models
     def predict(self, x: np.ndarray, c: np.ndarray | None = None) -> np.ndarray:
@@ -329,3 +365,19 @@ def seen(model: Model, *, along: np.ndarray | None = None, at: np.ndarray | None
     if isinstance(model, FramedModel):
         return model.turned(along=along, at=at)
     return model.data()
+
+
+def seen_where(model: Model, keep: Callable[[np.ndarray], np.ndarray], *,
+               along: np.ndarray | None = None, at: np.ndarray | None = None
+               ) -> tuple[np.ndarray | None, np.ndarray, np.ndarray, np.ndarray]:
+    """(indices, X, C, Y): the rows of `seen(model, along=…, at=…)` whose outcome `keep`
+    accepts (all rows, indices None, if it accepts none), the same values bit for bit; only
+    those rows' inputs and contexts are turned (`FramedModel.turned_where`)."""
+    if isinstance(model, FramedModel):
+        return model.turned_where(keep, along=along, at=at)
+    x, c, y = model.data()
+    mask = keep(y)
+    if not mask.any():
+        return None, x, c, y
+    rows = np.flatnonzero(mask)
+    return rows, x[rows], c[rows], y[rows]

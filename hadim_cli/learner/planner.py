@@ -20,9 +20,14 @@ from typing import Protocol
 import numpy as np
 
 from hadim_cli.config import LearnerConfig, PlannerConfig
-from hadim_cli.learner.affordance import CONTACT_MARGIN, Affordance, typical_step
+from hadim_cli.learner.affordance import (
+    CONTACT_MARGIN,
+    Affordance,
+    per_model_rows,
+    typical_step,
+)
 from hadim_cli.learner.competence import split_zero
-from hadim_cli.learner.frames import seen
+from hadim_cli.learner.frames import seen_where
 from hadim_cli.learner.hierarchy import Hierarchy
 from hadim_cli.learner.navigation import (
     ROBOT_HEADING,
@@ -366,12 +371,10 @@ class Planner:
         whatever bearing, then shows where a push along `delta` is made from.
         """
         x_cols = aff.model.dx
-        _, ctx, y = seen(aff.model, along=delta)
+        # A row where nothing moved shows no place an effect comes from (all rows if none moved).
+        _, _, ctx, y = seen_where(aff.model, self.effect, along=delta)
         scale = aff.model.scales().per_column()
         ctx_scale, y_scale = scale[x_cols:x_cols + ctx.shape[1]], scale[x_cols + ctx.shape[1]:]
-        effect = self.effect(y)
-        if effect.any():  # a row where nothing moved shows no place an effect comes from
-            ctx, y = ctx[effect], y[effect]
         free = np.repeat(relations, aff.model.context_dims)
         query = np.concatenate([(y - delta) / y_scale, ((ctx - c) / ctx_scale)[:, ~free]], 1)
         # Few rows (a new affordance): a neighbourhood of all of them would vote for the
@@ -417,16 +420,15 @@ class Planner:
         test: its (outcome, context) search is led by the outcome. Rows of a model in a
         relation's frame are turned to the bearing of `c`'s relation first (`frames.seen`), as
         the model reads them. `spreads`: `_spreads(aff)`, when the caller has them already."""
-        xs, ctx, y = seen(aff.model, at=c)
-        effect = np.flatnonzero(self.effect(y))
-        if effect.size < self.pc.support_neighbours:
+        effect, xs, ctx, _ = seen_where(aff.model, self.effect, at=c)
+        if effect is None or effect.size < self.pc.support_neighbours:
             return np.inf
         scale = aff.model.scales().per_column()[:xs.shape[1] + ctx.shape[1]]
-        z = np.concatenate([xs[effect], ctx[effect]], axis=1) / scale
+        z = np.concatenate([xs, ctx], axis=1) / scale
         q = np.concatenate([x, c]) / scale
         d2 = np.einsum("ij,ij->i", z - q, z - q)
         k = self.pc.support_neighbours
-        nb = effect[np.argpartition(d2, k - 1)[:k]]
+        nb = np.argpartition(d2, k - 1)[:k]
         spreads = self._spreads(aff) if spreads is None else spreads
         return min(self._gap(aff, spreads, c, ctx[i], relations) for i in nb)
 
@@ -437,17 +439,21 @@ class Planner:
         room, and a robot 0.14 m off the side of an object counted as behind it. Rows are read
         as stored, not turned along one outcome: turned, a push's relation spreads 0.14 m
         instead of 0.34 m, and the planner re-placed the robot so often that pushing an
-        object scored 0.85 instead of 0.91 (5 seeds)."""
-        _, data, y = aff.model.data()
+        object scored 0.85 instead of 0.91 (5 seeds). Kept per model until it has new rows."""
+        return list(per_model_rows(aff.model, ("spreads", self.config.zero_eps),
+                                   self._model_spreads))
+
+    def _model_spreads(self, model) -> tuple[float, ...]:
+        _, data, y = model.data()
         effect = self.effect(y)
         if effect.sum() >= 2:
             data = data[effect]
         spread = data.std(axis=0)
         out, offset = [], 0
-        for dim in aff.model.context_dims:
+        for dim in model.context_dims:
             out.append(max(float(np.linalg.norm(spread[offset:offset + dim])), 1e-6))
             offset += dim
-        return out
+        return tuple(out)
 
     @staticmethod
     def _gap(aff: Affordance, spreads: list[float], c: np.ndarray, other: np.ndarray,

@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from hadim_cli.learner.frames import Frame, FramedModel, relation_frame
+from hadim_cli.learner.frames import Frame, FramedModel, relation_frame, seen, seen_where
 from hadim_cli.learner.models import LocalLinearModel
 from hadim_cli.learner.spaces import ACTION, Role, RoleSpace
 from hadim_cli.world.layout import Property
@@ -174,3 +174,32 @@ def test_both_kinds_of_model_offer_the_model_interface() -> None:
 
     for cls in (FramedModel, LocalLinearModel):
         assert isinstance(fitted(cls, *pushes(np.random.default_rng(0), 20, (0.0, 1.0))), Model)
+
+
+@pytest.mark.parametrize("cls", [FramedModel, LocalLinearModel])
+@pytest.mark.parametrize("turn", ["along", "at", "no frame.y"])
+def test_the_rows_with_an_effect_are_turned_as_all_rows_are(cls, turn) -> None:
+    """`seen_where` turns only the rows whose turned outcome it keeps (the planner's passes
+    over an affordance's rows, O(n) per call): they are those rows of `seen`, bit for bit; if
+    it keeps none, all rows."""
+    rng = np.random.default_rng(5)
+    x, c, y = pushes(rng, 300, (-np.pi, np.pi))
+    if turn == "no frame.y" and cls is FramedModel:
+        model = FramedModel(2, 2, [2, 2], Frame(0, True, False, (1,)))
+        model.add(x, c, y)
+    else:
+        model = fitted(cls, x, c, y)
+    where = {"at": np.array([0.3, -0.1, 0.0, 1.0])} if turn == "at" else \
+        {"along": np.array([0.4, 0.3])}
+    moving = lambda v: np.linalg.norm(v, axis=1) > 1e-9  # noqa: E731
+    whole = seen(model, **where)
+    keep = moving(whole[2])
+    assert 0 < keep.sum() < keep.size
+    rows, *part = seen_where(model, moving, **where)
+    np.testing.assert_array_equal(rows, np.flatnonzero(keep))
+    for got, want in zip(part, whole, strict=True):
+        assert got.tobytes() == np.ascontiguousarray(want[keep]).tobytes()
+    rows, *part = seen_where(model, lambda v: np.zeros(len(v), dtype=bool), **where)
+    assert rows is None
+    for got, want in zip(part, whole, strict=True):
+        assert got.tobytes() == np.ascontiguousarray(want).tobytes()
