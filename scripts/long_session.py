@@ -21,12 +21,14 @@ evaluation scores. `--plot PNG` also draws them against iterations (rates and si
 of `--plot-block`, memory and the file's size as sampled, scores at each evaluation).
 
 `--time-restore [--at T]` restores the run's checkpoint at or before T (the last if not given)
-as `hadim resume` does, without writing anything, and prints the seconds to import torch
-(which any hadim process pays once), to read the checkpoint and D and rebuild the learner (and
-the CPU seconds of that, which a loaded machine changes little), and from there to the first
-new iteration. With `--then N` it goes on for N iterations (whole
-episodes, nothing stored) and prints their wall and CPU seconds: the cost per iteration at
-that point of the run, measured in CPU time, which a shared machine's load changes little.
+as `hadim resume` does, without writing anything (a store of an older schema is refused, not
+upgraded: a session of an older hadim may be writing to it; time an upgraded copy), and
+prints the seconds to import torch (which any hadim process pays once), to read the
+checkpoint and D and rebuild the learner (and the CPU seconds of that, which a loaded machine
+changes little), and from there to the first new iteration. With `--then N` it goes on for N
+iterations (whole episodes, nothing stored) and prints their wall and CPU seconds: the cost
+per iteration at that point of the run, measured in CPU time, which a shared machine's load
+changes little; and D's digest at the end and that of the new rows alone.
 """
 
 from __future__ import annotations
@@ -352,10 +354,15 @@ def time_restore(args: argparse.Namespace) -> None:
     import torch._dynamo  # noqa: F401
 
     from hadim_cli import runs
-    from store import Store
+    from store import SchemaError, Store
 
     t1, c1 = time.perf_counter(), time.process_time()
-    with Store.open(args.store, create=False) as store:
+    try:
+        # Not even an upgrade: a session may be writing to this store with an older hadim.
+        opened = Store.open(args.store, create=False, upgrade=False)
+    except SchemaError as exc:
+        sys.exit(f"error: {exc} (time a copy of it: `hadim store upgrade` upgrades the copy)")
+    with opened as store:
         session = runs.restore_session(store, store.get_run(args.name), args.at)
     t2, c2 = time.perf_counter(), time.process_time()
     first: list[float] = []

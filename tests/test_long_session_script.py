@@ -166,3 +166,26 @@ def test_cpu_rates_leave_out_a_processs_start_evaluations_and_other_processes():
     assert long_session._cpu_rate(r, 0, 200) == pytest.approx(100 / 1.0)
     assert long_session._cpu_rate(r, 400, 600) == pytest.approx(100 / 0.5)
     assert long_session._cpu_rate(r, 200, 400) is None
+
+
+def test_restore_timing_refuses_an_older_store_unchanged(tmp_path, monkeypatch):
+    """A session of an older hadim may be writing to the store: timing a restore must not
+    upgrade it under that session's feet (it would then refuse to resume)."""
+    import shutil
+    import sqlite3
+
+    old = tmp_path / "v2.sqlite"
+    shutil.copyfile(Path(__file__).parent / "fixtures" / "store_v2.sqlite", old)
+    monkeypatch.setattr(sys, "argv", ["long_session.py", "--store", str(old), "--name", "run-1",
+                                      "--time-restore"])
+    with pytest.raises(SystemExit) as stop:
+        long_session.main()
+    assert str(stop.value).startswith("error: ") and "hadim store upgrade" in str(stop.value)
+    con = sqlite3.connect(old)
+    try:
+        assert con.execute("SELECT value FROM meta WHERE key = 'schema_version'").fetchone() \
+            == ("2",)
+        columns = {row[1] for row in con.execute("PRAGMA table_info(checkpoint_items)")}
+    finally:
+        con.close()
+    assert "prefix" in columns and "skip" not in columns
