@@ -3,6 +3,7 @@
     python scripts/long_session.py --store long.sqlite --iterations 100000   # run / resume
     python scripts/long_session.py --store long.sqlite --report              # the tables
     python scripts/long_session.py --store long.sqlite --report --plot long.png   # + figure
+    python scripts/long_session.py --store copy.sqlite --delta-bytes 50000   # a delta's bytes
 
 Runs the session named `--name` (default `long`, seed 0, default config, evaluation every
 `--eval-every` iterations) in a child process, resuming it if the store already has it, and
@@ -410,6 +411,47 @@ def _digest(*arrays) -> str:
     return digest.hexdigest()
 
 
+def delta_bytes(args: argparse.Namespace) -> None:
+    """Per checkpoint T of `--delta-bytes`: the bytes it holds in the store (as the hadim that
+    wrote it encoded it) and those this hadim writes for the same checkpoint as a delta on the
+    run's checkpoint before it (p_A's replay items apart: the part a full replay rewrote)."""
+    from datetime import UTC
+
+    from store import SchemaError, Store, codecs, deltas
+
+    try:
+        opened = Store.open(args.store, create=False, upgrade=False)
+    except SchemaError as exc:
+        sys.exit(f"error: {exc} (measure a copy of it: `hadim store upgrade` upgrades the copy)")
+    with opened as store:
+        its = store.checkpoint_iterations(args.name)
+        con = _connect(Path(args.store))
+        try:
+            for at in args.delta_bytes:
+                if at not in its or its.index(at) == 0:
+                    sys.exit(f"error: run {args.name!r} has no checkpoint at {at} after another")
+                before = store.checkpoint(args.name, its[its.index(at) - 1])
+                now = store.checkpoint(args.name, at)
+                stored = con.execute(
+                    "SELECT i.key, coalesce(length(i.data), 0) + coalesce(length(i.text), 0) "
+                    "FROM checkpoint_items i JOIN checkpoints c ON c.id = i.checkpoint_id "
+                    "JOIN runs r ON r.id = c.run_id WHERE r.name = ? AND c.iteration = ?",
+                    (args.name, at)).fetchall()
+                base = deltas.LastWritten(
+                    datetime.now(UTC), -1, before.iteration, dict(before.arrays),
+                    {k: [codecs.encode_json(e) for e in v] for k, v in before.json.items()
+                     if isinstance(v, list)}, {})
+                rows, *_ = deltas.encode(now.arrays, now.json, compress=True, base=base)
+                replay = lambda pairs: sum(n for k, n in pairs if ".replay." in k)  # noqa: E731
+                print(json.dumps({
+                    "iteration": at, "base_iteration": before.iteration,
+                    "stored_bytes": sum(n for _, n in stored), "stored_replay_bytes":
+                    replay(stored), "delta_bytes": sum(r.size for r in rows),
+                    "delta_replay_bytes": replay([(r.key, r.size) for r in rows])}))
+        finally:
+            con.close()
+
+
 def main() -> None:
     p = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     p.add_argument("--store", required=True)
@@ -433,9 +475,12 @@ def main() -> None:
     p.add_argument("--time-restore", action="store_true")
     p.add_argument("--at", type=int, default=None)
     p.add_argument("--then", type=int, default=0)
+    p.add_argument("--delta-bytes", type=int, nargs="+", default=None, metavar="T",
+                   help="bytes of the checkpoint at T as stored and as this hadim's delta")
     args = p.parse_args()
     os.environ.setdefault("PYTHONUNBUFFERED", "1")
-    (report if args.report else time_restore if args.time_restore else run)(args)
+    (report if args.report else time_restore if args.time_restore
+     else delta_bytes if args.delta_bytes else run)(args)
 
 
 if __name__ == "__main__":

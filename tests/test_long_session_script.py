@@ -189,3 +189,22 @@ def test_restore_timing_refuses_an_older_store_unchanged(tmp_path, monkeypatch):
     finally:
         con.close()
     assert "prefix" in columns and "skip" not in columns
+
+
+def test_delta_bytes_of_a_checkpoint_this_hadim_wrote_are_what_it_stored(sampled, monkeypatch,
+                                                                         capsys):
+    con = long_session._connect(sampled)
+    try:
+        deltas = [it for it, in con.execute(
+            "SELECT c.iteration FROM checkpoints c JOIN runs r ON r.id = c.run_id WHERE "
+            "r.name = 'long' AND c.base_iteration IS NOT NULL ORDER BY c.iteration")]
+    finally:
+        con.close()
+    assert deltas
+    monkeypatch.setattr(sys, "argv", ["long_session.py", "--store", str(sampled),
+                                      "--delta-bytes", str(deltas[-1])])
+    long_session.main()
+    out = json.loads(capsys.readouterr().out)
+    assert out["iteration"] == deltas[-1] and out["base_iteration"] < deltas[-1]
+    assert out["delta_bytes"] == out["stored_bytes"] > 0
+    assert out["delta_replay_bytes"] == out["stored_replay_bytes"]
