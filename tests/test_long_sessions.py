@@ -14,7 +14,7 @@ import pytest
 
 from hadim_cli import runs
 from hadim_cli.app import app
-from hadim_cli.config import load_config
+from hadim_cli.config import LEGACY_DEFAULTS, load_config
 from hadim_cli.session import Session
 from store import SCHEMA_VERSION, Store
 
@@ -147,9 +147,13 @@ def test_a_schema_1_store_opens_and_resumes_exactly(runner, tmp_path):
     con.close()
     assert show(runner, store, "run-1")["iterations"] == 100
     ok(runner, "resume", "run-1", "--iterations", 200, "--eval-every", 0, "--store", store)
-    # The fixture's run was planned before the [planner] section existed: it resumes with the
-    # planner it trained with (config.LEGACY_DEFAULTS), so the fresh run is given the same.
-    fresh = train(runner, store, 200, "--set", "planner.navigation=false")
+    # The fixture's run was stored before some keys of config.LEGACY_DEFAULTS existed: it
+    # resumes with the values it trained with, so the fresh run is given the same.
+    stored = show(runner, store, "run-1")["config"]
+    legacy = [arg for section, keys in LEGACY_DEFAULTS.items() for key, value in keys.items()
+              if key not in stored.get(section, {})
+              for arg in ("--set", f"{section}.{key}={str(value).lower()}")]
+    fresh = train(runner, store, 200, *legacy)
     assert show(runner, store, "run-1")["dataset_sha256"] == \
         show(runner, store, fresh)["dataset_sha256"]
     assert affordances(runner, store, "run-1") == affordances(runner, store, fresh)
