@@ -40,9 +40,11 @@ def target_table(summary: dict[str, Any], reference: str) -> str:
 
 def p_a_checks(accepted: list[str] | None, task) -> tuple[bool, bool, bool] | None:
     """(every green object accepted, no red one, not the robot) in `task`'s scene, from the
-    entity names p_A accepts there (`reports.affordance_rows` asks it on that scene)."""
+    entities p_A accepts there (`reports.affordance_rows` asks it on that scene and labels
+    each with its colour: `obj7 (red)`)."""
     if accepted is None:
         return None
+    accepted = [label.split(" (")[0] for label in accepted]
     names = [f"obj{i + 1}" for i in range(len(task.scene.objects))]
     green = [n for n, o in zip(names, task.scene.objects, strict=True) if o.pushable]
     red = [n for n, o in zip(names, task.scene.objects, strict=True) if not o.pushable]
