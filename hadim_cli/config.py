@@ -257,9 +257,9 @@ class LearnerConfig:
     label per learning episode. Whether an object's position can be changed is a fact about
     the object, seen by whichever affordance acted on it; a fixed object stops the robot or
     the tool, so its pushes in vain are seldom rows of the pushing or the tool affordance
-    (docs/algorithm.md, p_A). Off (the default): each affordance learns from its own rows only
-— with this session's planner, on scored less on the tool task (0.63 against 0.67 at 4000,
-0.47 against 0.58 at 2000, ten seeds)."""
+        (docs/algorithm.md, p_A). Off (the default): each affordance learns from its own rows
+    only — with the planner of 2026-11-24, on scored less on the tool task (0.63 against 0.67
+    at 4000, 0.47 against 0.58 at 2000, ten seeds)."""
 
     def validate(self) -> None:
         for name in ("sigma", "match_tolerance", "context_gain", "interest_epsilon",

@@ -206,18 +206,14 @@ class FramedModel:
                                                         self._centred))
         return self._scale_cache[1]
 
-    def turned(self, *, along: np.ndarray | None = None, at: np.ndarray | None = None,
-               rows: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    def turned(self, *, along: np.ndarray | None = None, at: np.ndarray | None = None
+               ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """The rows (X, C, Y) in room coordinates, each scene turned about itself: so that its
         outcome points `along` a direction (rows with a null outcome stay as they are), or so
         that its framing relation has the bearing of the one in the context `at`. Each row
         reads as it would have there: where a push along `along` is made from, which rows
-        act from near the relation of `at`. With `rows` (indices), those rows only: each row
-        is turned on its own, so they are the same values, bit for bit, as those rows of the
-        whole (a pass over all rows costs O(n) per call)."""
+        act from near the relation of `at`."""
         x, c, y = self.data()
-        if rows is not None:
-            x, c, y = x[rows], c[rows], y[rows]
         turn = self._turns(along, at, y, c)
         if turn is None:
             return x, c, y

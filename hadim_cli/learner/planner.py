@@ -255,7 +255,7 @@ class Planner:
         for col in cols:
             after[:, col] += y - moves
         miss = np.linalg.norm(y - delta, axis=1) / max(float(np.linalg.norm(delta)), 1e-9)
-        gaps = np.array([self._gap(aff, spreads, row, needed, relations) for row in after])
+        gaps = self._gaps(aff, spreads, needed, after, relations)
         return moves[int(np.argmin(miss + gaps))].copy()
 
     def _steering(self, aff: Affordance, b: Binding, needed: np.ndarray, obs: np.ndarray
@@ -430,7 +430,7 @@ class Planner:
         k = self.pc.support_neighbours
         nb = np.argpartition(d2, k - 1)[:k]
         spreads = self._spreads(aff) if spreads is None else spreads
-        return min(self._gap(aff, spreads, c, ctx[i], relations) for i in nb)
+        return float(self._gaps(aff, spreads, c, ctx[nb], relations).min())
 
     def _spreads(self, aff: Affordance) -> list[float]:
         """Per context space of `aff`: the norm of its per-column standard deviations over the
@@ -460,13 +460,19 @@ class Planner:
              spaces: np.ndarray | None = None) -> float:
         """Largest distance between two contexts, per context space (of those in the mask
         `spaces`, all by default), in units of its spread (`_spreads`)."""
-        gap, offset = 0.0, 0
+        return float(Planner._gaps(aff, spreads, c, other[None], spaces)[0])
+
+    @staticmethod
+    def _gaps(aff: Affordance, spreads: list[float], c: np.ndarray, others: np.ndarray,
+              spaces: np.ndarray | None = None) -> np.ndarray:
+        """`_gap` of `c` to each row of `others`."""
+        gap, offset = np.zeros(others.shape[0]), 0
         for i, dim in enumerate(aff.model.context_dims):
             sl = slice(offset, offset + dim)
             offset += dim
             if spaces is not None and not spaces[i]:
                 continue
-            gap = max(gap, float(np.linalg.norm(c[sl] - other[sl])) / spreads[i])
+            gap = np.maximum(gap, np.linalg.norm(others[:, sl] - c[sl], axis=1) / spreads[i])
         return gap
 
     def execute(self, space: RoleSpace, x: np.ndarray, b: Binding, actuator: Actuator,
@@ -727,39 +733,45 @@ class Planner:
         length2 = float(seg @ seg)
         if length2 < 1e-12:
             return None
-        first: tuple[float, np.ndarray, float] | None = None
+        first: tuple[float, int] | None = None
         for e in obstacles:
             centre = self.reader.entity_position(obs, e)
-            clearance = self.reader.entity_radius(obs, e) + mover_radius + self.pc.approach_margin
+            clearance = self._clearance(obs, e, mover_radius)
             s = float(np.clip((centre - start) @ seg / length2, 0.0, 1.0))
             if s >= 0.95 or np.linalg.norm(start + s * seg - centre) >= clearance:
                 continue
             if first is None or s < first[0]:
-                first = (s, centre, clearance)
+                first = (s, e)
         if first is None:
             return None
-        return self._cluster(first[1], first[2], obs, obstacles, mover_radius)
+        return self._cluster(first[1], obs, obstacles, mover_radius)
 
-    def _cluster(self, centre: np.ndarray, clearance: float, obs: np.ndarray,
-                 obstacles: list[int], mover_radius: float) -> tuple[np.ndarray, float]:
-        """The disc (centre, clearance) round an obstacle and every other whose clearance
-        overlaps it, one after another: no way passes between them, so a detour goes round
-        them all. Round the target alone, a detour led between the target and a tool
-        against it, to a waypoint inside the tool."""
-        members = {tuple(np.round(centre, 9))}
+    def _clearance(self, obs: np.ndarray, entity: int, mover_radius: float) -> float:
+        """How far (between centres) a mover of `mover_radius` keeps from `entity` going
+        round it: touching, plus `approach_margin`."""
+        return self.reader.entity_radius(obs, entity) + mover_radius + self.pc.approach_margin
+
+    def _cluster(self, first: int, obs: np.ndarray, obstacles: list[int],
+                 mover_radius: float) -> tuple[np.ndarray, float]:
+        """The disc (centre, clearance) round the obstacle `first` and every other whose
+        clearance overlaps it, one after another: no way passes between them, so a detour
+        goes round them all. Round the target alone, a detour led between the target and a
+        tool against it, to a waypoint inside the tool."""
+        centre = self.reader.entity_position(obs, first)
+        clearance = self._clearance(obs, first, mover_radius)
+        members = {first}
         grown = True
         while grown:
             grown = False
             for e in obstacles:
-                c = self.reader.entity_position(obs, e)
-                key = tuple(np.round(c, 9))
-                if key in members:
+                if e in members:
                     continue
-                r = self.reader.entity_radius(obs, e) + mover_radius + self.pc.approach_margin
+                c = self.reader.entity_position(obs, e)
+                r = self._clearance(obs, e, mover_radius)
                 d = float(np.linalg.norm(c - centre))
                 if d >= clearance + r:
                     continue
-                members.add(key)
+                members.add(e)
                 grown = True
                 if d + r > clearance:  # the smallest disc holding both
                     new = 0.5 * (d + r + clearance)

@@ -40,16 +40,16 @@ def target_table(summary: dict[str, Any], reference: str) -> str:
 
 def p_a_checks(accepted: list[str] | None, task) -> tuple[bool, bool, bool] | None:
     """(every green object accepted, no red one, not the robot) in `task`'s scene, from the
-    entities p_A accepts there (`reports.affordance_rows` asks it on that scene and labels
-    each with its colour: `obj7 (red)`)."""
+    entities p_A accepts there as `reports.affordance_rows` labels them (`obj7 (red)`)."""
+    from hadim_cli.reports import entity_label
+
     if accepted is None:
         return None
-    accepted = [label.split(" (")[0] for label in accepted]
-    names = [f"obj{i + 1}" for i in range(len(task.scene.objects))]
-    green = [n for n, o in zip(names, task.scene.objects, strict=True) if o.pushable]
-    red = [n for n, o in zip(names, task.scene.objects, strict=True) if not o.pushable]
+    labels = [entity_label(f"obj{i + 1}", task.scene) for i in range(len(task.scene.objects))]
+    green = [n for n, o in zip(labels, task.scene.objects, strict=True) if o.pushable]
+    red = [n for n, o in zip(labels, task.scene.objects, strict=True) if not o.pushable]
     return (all(n in accepted for n in green), not any(n in accepted for n in red),
-            "robot" not in accepted)
+            entity_label("robot", task.scene) not in accepted)
 
 
 def _run_row(session, name: str, task, counts: dict[str, Any]) -> str:
