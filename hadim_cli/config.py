@@ -346,6 +346,14 @@ class PlannerConfig:
     slid along the target's side is pushed on and back behind it), instead of a trip to the
     needed place. Off: the fixed rule (`realign`) decides between pushing on as is and a
     trip."""
+    hold_relation: bool = True
+    """An input that is itself an object pushed by another affordance (the tool of
+    `tool.position → target.position`) heads, while its relation to the output is within
+    `realign` spreads of the needed one, for where it will be when the output is at its goal
+    (that goal less the needed relation), one inverse-model step at a time — instead of a
+    fresh inverse answer and steering each step. Its direction then stays put between steps,
+    and every change of it would cost its pusher a trip round it. Off: the inverse answer
+    and `steer` as for any input."""
     replace_by_cost: bool = False
     """Re-place only when the trip (its estimated actions) plus pushing from the new place
     costs less than pushing on from here at the rate the forward model predicts; off: the
@@ -520,7 +528,7 @@ def config_from_dict(values: Mapping[str, Any]) -> Config:
 LEGACY_DEFAULTS: dict[str, dict[str, Any]] = {
     "learner": {"surface_relations": False, "relation_frames": False, "context_splits": 1,
                 "p_a_pooled": False},
-    "planner": {"navigation": False, "steer": False},
+    "planner": {"navigation": False, "steer": False, "hold_relation": False},
 }
 """Keys added after runs were first stored, with the value that reproduces what a run stored
 without them did (its defaults then): a stored run restores the learner it trained (the

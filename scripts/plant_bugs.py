@@ -40,7 +40,13 @@ BUGS = (
     Bug("navigator-heading-ignored", "hadim_cli/learner/navigation.py",
         "direct = direct + line_angle(arrive, want) / turn", "direct = direct",
         "tests/learner/test_pose_reaching.py"),
-    Bug("scripted-no-steering", "scripts/scripted_controller.py",
+    Bug("hold-relation-from-here", "hadim_cli/learner/planner.py",
+        "final = goal - self.reader.offset_now(space, want, obs, b.target, b.tool)",
+        "final = self.value(aff.output, obs, b) - self.reader.offset_now(space, want, obs, "
+        "b.target, b.tool)",
+        "tests/learner/test_planner.py::test_an_object_input_heads_for_where_it_must_be_when_"
+        "the_output_is_at_its_goal"),
+    Bug("scripted-no-steering", "hadim_cli/evaluation/scripted.py",
         "STEERING = True", "STEERING = False",
         "tests/test_scripted_controller.py::test_the_tool_pushes_the_target_off_its_start"
         "_line_without_the_robot_touching_it"),

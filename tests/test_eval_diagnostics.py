@@ -104,7 +104,7 @@ def test_an_exact_level_is_a_diagnostic_not_a_stored_score(runner, store):
     bad = invoke(runner, "eval", "run-1", "--task", "move-robot", "--exact", "physics",
                  "--store", store)
     assert bad.exit_code == 2 and bad.stderr.strip() == \
-        "error: --exact: unknown level 'physics' (known: navigation)"
+        "error: --exact: unknown level 'physics' (known: navigation, push, tool)"
 
 
 def test_the_exact_level_changes_nothing_of_the_learner(store):
@@ -114,10 +114,14 @@ def test_the_exact_level_changes_nothing_of_the_learner(store):
     with runs.open_store(str(store), create=False) as st:
         session = runs.restore_session(st, st.get_run("run-1"))
     planner = session.learner.planner
-    before = (planner.pc, planner.navigator)
+    before = (planner.pc, planner.navigator, planner.pusher, planner.tool_guide)
     with exact_levels(session.learner, session.config.world, ("navigation",)):
         assert planner.navigator.motion is not None
-    assert (planner.pc, planner.navigator) == before
+        assert planner.pusher is None and planner.tool_guide is None
+    with exact_levels(session.learner, session.config.world, ("push", "tool")):
+        assert planner.pusher is not None and planner.tool_guide is not None
+        assert planner.navigator is before[1]
+    assert (planner.pc, planner.navigator, planner.pusher, planner.tool_guide) == before
 
 
 def test_an_animation_is_written_and_the_same_run_draws_the_same_frames(runner, store,

@@ -2,8 +2,18 @@
 
 `hadim eval RUN --task T --exact navigation` replaces the robot's *learned* motion (the lowest
 level of the chain) by the differential drive's kinematics, so the difference of the two scores
-tells what the learned navigation costs. The stand-in knows the physics the learner does not
-(wheel speed, wheel base, action duration); it only ever serves an evaluation.
+tells what the learned navigation costs. `--exact push` replaces the middle level: whenever a
+level above asks for an object to move (the tool, in `push-with-tool`), the scripted
+controller's push (`evaluation.scripted`: true state, exact kinematics, pure-pursuit steering)
+moves it there instead of the learned `robot.position → object` affordance and the levels
+below it; the level above (the tool's effect on the target) stays learned. A task whose top
+affordance is itself the robot's push (`push-object`) has no level above it and is unchanged.
+`--exact tool` replaces the top level of `push-with-tool`: where the tool should go next for the
+target to reach its point (the scripted controller's strike or staging place, one
+`TOOL_STEP` at a time), the robot's push of the tool and the levels below it staying learned.
+Levels combine (`--exact tool --exact push`: the scripted controller in the planner's loop).
+The stand-ins know the physics the learner does not (wheel speed, wheel base, action duration,
+radii); they only ever serve an evaluation.
 """
 
 from __future__ import annotations
@@ -18,9 +28,10 @@ from hadim_cli.config import WorldConfig
 from hadim_cli.errors import HadimError
 from hadim_cli.learner.explorer import Learner
 from hadim_cli.learner.navigation import ROBOT_HEADING, Navigator
+from hadim_cli.learner.planner import Actuator, Binding
 from hadim_cli.learner.spaces import SpaceReader
 
-LEVELS = ("navigation",)
+LEVELS = ("navigation", "push", "tool")
 """Levels of the chain that can be replaced by an exact one."""
 
 
@@ -49,6 +60,50 @@ class KinematicMotion:
         return np.stack([dx, dy], axis=1), after
 
 
+class ExactPush:
+    """The scripted controller's push of one object to a point (`evaluation.scripted`), one
+    action at a time from the observation, until the object is within `tolerance` of it, the
+    push gives up, or the budget is spent."""
+
+    def __init__(self, world: WorldConfig, reader: SpaceReader, tolerance: float = 0.01):
+        from hadim_cli.evaluation.scripted import TOOL_STEP, ObservedPusher
+
+        self.pusher = ObservedPusher(world, reader)
+        self.step = TOOL_STEP
+        self.tolerance = tolerance
+
+    def __call__(self, entity: int, goal: np.ndarray, avoid: int, actuator: Actuator,
+                 budget: int) -> int:
+        used = 0
+        while used < budget and not actuator.exhausted:
+            obs = actuator.obs
+            if np.linalg.norm(self.pusher.pos(obs, entity) - goal) <= self.tolerance:
+                break
+            command = self.pusher.push(obs, entity, goal, self.step, avoid)
+            if command is None:
+                break
+            actuator.act(command)
+            used += 1
+        return used if used > 0 else -1
+
+
+class ExactTool:
+    """The scripted controller's tool goal (`Scripted.tool_goal`), as the tool's next move of
+    at most `TOOL_STEP`."""
+
+    def __init__(self, world: WorldConfig, reader: SpaceReader):
+        from hadim_cli.evaluation.scripted import TOOL_STEP, ObservedPusher
+
+        self.guide = ObservedPusher(world, reader)
+        self.step = TOOL_STEP
+
+    def __call__(self, obs: np.ndarray, goal: np.ndarray, b: Binding) -> np.ndarray:
+        wanted, _ = self.guide.tool_goal(obs, goal, b.target, b.tool)
+        way = wanted - self.guide.pos(obs, b.tool)
+        n = float(np.linalg.norm(way))
+        return way if n <= self.step else way * (self.step / n)
+
+
 @contextlib.contextmanager
 def exact_levels(learner: Learner, world: WorldConfig, levels: tuple[str, ...]
                  ) -> Iterator[None]:
@@ -58,12 +113,16 @@ def exact_levels(learner: Learner, world: WorldConfig, levels: tuple[str, ...]
     if unknown:
         raise HadimError(f"--exact: unknown level '{unknown[0]}' (known: {', '.join(LEVELS)})")
     planner = learner.planner
-    saved = planner.pc, planner.navigator
+    saved = planner.pc, planner.navigator, planner.pusher, planner.tool_guide
     try:
         if "navigation" in levels:
             planner.pc = dataclasses.replace(planner.pc, navigation=True)
             motion = KinematicMotion(world, learner.reader)
             planner.navigator = Navigator(planner.h, learner.reader, planner.pc, motion)
+        if "push" in levels:
+            planner.pusher = ExactPush(world, learner.reader)
+        if "tool" in levels:
+            planner.tool_guide = ExactTool(world, learner.reader)
         yield
     finally:
-        planner.pc, planner.navigator = saved
+        planner.pc, planner.navigator, planner.pusher, planner.tool_guide = saved

@@ -471,3 +471,55 @@ def test_steering_keeps_the_contact_where_the_push_needs_it():
                             contexts=(RADIUS,), model=LocalLinearModel(2, 2, [1]))
     assert planner._steer_by_model(other, delta, np.zeros(1), np.zeros(1), then,
                                    np.array([False]), [0.1]) is None
+
+
+def test_an_object_input_heads_for_where_it_must_be_when_the_output_is_at_its_goal():
+    """`hold_relation`: while the tool's relation to the target is within `realign` of the
+    needed one, the tool's move heads for its final place — the target's goal less the needed
+    relation — at the inverse model's step, not along the step asked of the target from here.
+    Further off, or for the robot (which turns at will), the level's other rules decide."""
+    from dataclasses import replace
+
+    planner, obs, _ = _avoid_scene()  # target obj1 at (0.6, 0), tool obj2 at (0.3, 0.5)
+    tool_position = RoleSpace(Role.TOOL, Property.POSITION)
+    target_tool = RoleSpace(Role.TARGET, Property.POSITION, Role.TOOL)
+    step = np.array([0.08, 0.0])
+    model = SimpleNamespace(n=100, context_dims=[2],
+                            infer=lambda delta, c=None: SimpleNamespace(
+                                x=step, y_predicted=np.zeros(2)))
+    aff = SimpleNamespace(id=6, model=model, contexts=(target_tool,), input=tool_position,
+                          output=TARGET_POSITION)
+    b = Binding(target=1, tool=2, avoid=1)
+    goal = np.array([1.2, 0.5])
+    # The needed relation, read as stored: the tool pressed against the target from behind.
+    want = np.array([0.3, 0.0])
+    behind = planner.reader.offset_now(target_tool, want, obs, 1, 2)
+    assert behind[0] > 0.15 and abs(behind[1]) < 1e-9
+    delta = np.array([0.06, 0.05])  # the target's step toward its goal from (0.6, 0)
+    way = planner._way_to_final_place(aff, b, delta, want, 0.2, goal, obs)
+    final = goal - behind
+    assert np.isclose(np.linalg.norm(way), 0.08)
+    assert np.allclose(way / 0.08, (final - [0.3, 0.5]) / np.linalg.norm(final - [0.3, 0.5]))
+    # Not the place behind the target where it stands now (the step's own direction).
+    now = np.array([0.6, 0.0]) - behind - [0.3, 0.5]
+    assert abs(way @ now) / (0.08 * np.linalg.norm(now)) < 0.9
+    # Off by more than `realign`, the robot as the input, or the switch off: no such move.
+    assert planner._way_to_final_place(aff, b, delta, want, 0.6, goal, obs) is None
+    robot = SimpleNamespace(**{**vars(aff), "input": ROBOT_POSITION})
+    assert planner._way_to_final_place(robot, b, delta, want, 0.2, goal, obs) is None
+    assert planner._way_to_final_place(aff, b, delta, want, 0.2, None, obs) is None
+    off_switch = replace(planner.pc, hold_relation=False)
+    planner.pc, saved = off_switch, planner.pc
+    assert planner._way_to_final_place(aff, b, delta, want, 0.2, goal, obs) is None
+    planner.pc = saved
+    # In a step of the level, that move is what the tool is asked for.
+    planner.context = lambda *args: np.zeros(2)
+    planner.reachable_relations = lambda a: np.array([True])
+    planner._spreads = lambda a: [0.1]
+    planner.support_gap = lambda *args: 1.0
+    planner.needed_context = lambda *args: want
+    planner._gap = lambda *args: 0.2
+    calls = []
+    planner.execute = lambda space, x, *args, **kw: calls.append(x) or 1
+    planner._one_step(aff, b, delta, SimpleNamespace(obs=obs), 80, 0, goal=goal)
+    assert np.allclose(calls[0], way)
