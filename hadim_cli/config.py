@@ -204,8 +204,9 @@ class LearnerConfig:
     lies: the target has to push that object out of its way instead of stopping at it."""
     goal_budget: int = 40
     """Primitive actions one goal attempt may use."""
-    subgoal_budget: int = 6
-    """Primitive actions one sub-goal (a lower affordance's step) may use."""
+    subgoal_budget: int = 1
+    """Primitive actions one sub-goal (a lower affordance's step, a trip to a place) may use
+    before the level above replans: 1, every level decides again after every action."""
     reach_tolerance: float = 0.05
     """A goal counts as reached within this fraction of its initial distance."""
     interest_max_goals: int = 50

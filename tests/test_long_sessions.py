@@ -96,7 +96,7 @@ def test_a_full_p_a_replay_is_written_as_its_new_rows_and_resumes_exactly(runner
 
     monkeypatch.setitem(VisualClassifier.__init__.__kwdefaults__, "replay_size", 2)
     monkeypatch.setenv(runs.SNAPSHOT_ENV, "4")
-    store, n = tmp_path / "s.sqlite", 500
+    store, n = tmp_path / "s.sqlite", 800
     whole = train(runner, store, n)
     con = sqlite3.connect(store)
     try:

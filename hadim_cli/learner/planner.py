@@ -120,7 +120,10 @@ class Planner:
         self.stack: list[Pursuit] = []
         """What the planner is pursuing now, outermost first (read by episode recordings)."""
         self.trips = 0
-        """Trips to a place (re-placements of the robot or of a tool) of the last goal."""
+        """Trips to a place (re-placements of the robot or of a tool) of the last goal: each
+        counted once, when it starts after an action that was not a placement."""
+        self._placing = False
+        """Whether the last primitive action served a placement (a trip under way)."""
         self.pusher: Pusher | None = None
         """An exact stand-in for the robot pushing an object where a level above asks
         (`evaluation.exact`, evaluation only); None: the learned affordances push."""
@@ -155,6 +158,7 @@ class Planner:
         if depth == 0:
             self.navigator.forget()
             self.trips = 0
+            self._placing = False
         self.stack.append(Pursuit(f"A{aff.id} {aff.output.name}", goal, b))
         try:
             used = self._reach_loop(aff, b, goal, start, actuator, budget, depth)
@@ -551,7 +555,7 @@ class Planner:
             action = np.clip(x, -1.0, 1.0)
             if self.foresees_contact(b, action, actuator.obs):
                 return -1
-            actuator.act(action)
+            self._act(actuator, action)
             return 1
         if depth >= self.pc.max_depth or budget <= 0:
             return -1
@@ -621,9 +625,14 @@ class Planner:
             action = self.navigator.choose(actuator.obs, place, keep, b.target, b.tool)
             if action is None:
                 break
-            actuator.act(action)
+            self._act(actuator, action)
             used += 1
         return used
+
+    def _act(self, actuator: Actuator, action: np.ndarray) -> None:
+        """One primitive action, remembering whether it served a placement (`trips`)."""
+        actuator.act(action)
+        self._placing = any(p.label.startswith("place ") for p in self.stack)
 
     def heading_for(self, move: np.ndarray, obs: np.ndarray, b: Binding) -> np.ndarray | None:
         """The heading from which the robot's learned motion produces the displacement `move`
@@ -707,6 +716,7 @@ class Planner:
                 np.linalg.norm(goal - self.reader.entity_position(actuator.obs, b.avoid))
                 < self._avoid_distance(actuator.obs, b)):
             return -1
+        starting = not self._placing  # the planner replans every action: a trip goes on
         target_entity = sub_b.target if driven.role is not Role.ROBOT else -1
         waypoints = self._waypoints(driven, goal, actuator.obs, b, target_entity)
         space = aff.contexts[i]
@@ -720,10 +730,10 @@ class Planner:
             done = self.navigate(places, b, actuator, min(budget, self.config.goal_budget),
                                  near)
             if done > 0:
-                self.trips += 1
+                self.trips += starting
                 return done
             # The learned motion sees no way from here: the inverse model's way below.
-        self.trips += 1
+        self.trips += starting
         for waypoint in waypoints:
             attempt = self.reach(sub, sub_b, waypoint, actuator,
                                  min(budget - used, self.config.goal_budget), depth + 1)
