@@ -46,6 +46,18 @@ BUGS = (
         "b.target, b.tool)",
         "tests/learner/test_planner.py::test_an_object_input_heads_for_where_it_must_be_when_"
         "the_output_is_at_its_goal"),
+    Bug("robust-fit-not-configured", "hadim_cli/learner/affordance.py",
+        '"robust_iterations": self.config.robust_fit,', '"robust_iterations": 0,',
+        "tests/learner/test_tool_rows.py::test_the_learner_config_sets_the_robustness_of_"
+        "every_new_model"),
+    Bug("robust-fit-no-reweighting", "hadim_cli/learner/models.py",
+        "u = np.minimum(res / (ROBUST_CUTOFF * s), 1.0)", "u = np.zeros_like(res)",
+        "tests/learner/test_models.py::test_robust_fits_ignore_a_few_blocked_rows"),
+    Bug("robust-floor-over-the-batch", "hadim_cli/learner/models.py",
+        "np.sqrt(np.mean(np.square(y_nb), axis=(1, 2))), 1e-12)[:, None]",
+        "np.sqrt(np.mean(np.square(y_nb))), 1e-12)",
+        "tests/learner/test_models.py::test_a_robust_fit_does_not_depend_on_the_other_queries_"
+        "of_its_batch"),
     Bug("scripted-no-steering", "hadim_cli/evaluation/scripted.py",
         "STEERING = True", "STEERING = False",
         "tests/test_scripted_controller.py::test_the_tool_pushes_the_target_off_its_start"

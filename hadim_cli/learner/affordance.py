@@ -239,7 +239,7 @@ class Fitter:
         dims = (space_dim(inp, layout), space_dim(out, layout),
                 [space_dim(c, layout) for c in contexts])
         params = {"k_forward": self.config.k_forward, "k_inverse": self.config.k_inverse,
-                  "x_low": low, "x_high": high}
+                  "robust_iterations": self.config.robust_fit, "x_low": low, "x_high": high}
         frame = relation_frame(inp, out, contexts) if self.config.relation_frames else None
         if frame is not None:
             return FramedModel(*dims, frame, **params)

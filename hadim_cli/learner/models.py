@@ -40,6 +40,11 @@ from scipy.spatial import cKDTree
 
 SCALE_FLOOR = 1e-6
 """Smallest scale of a space: a constant space must not blow its rounding noise up."""
+ROBUST_CUTOFF = 6.0
+"""A neighbour whose residual is this many times the median residual of its local fit has no
+weight in a robust refit (Cleveland's bisquare, 1979)."""
+_ROBUST_FLOOR = 1e-3
+"""Least residual scale of a robust refit, relative to the RMS of its neighbours' outcomes."""
 
 _ZERO_REL = 1e-6
 """Rows of a change space whose norm is below this fraction of the largest are "zero"."""
@@ -228,14 +233,19 @@ class LocalLinearModel:
       answers of `infer`;
     - `trust_radius`: longest inverse step, in units of the input space's scale;
     - `damping`: of the Jacobian pseudo-inverse, in normalised units;
-    - `refine_steps`: extra Newton steps from the best inverse candidate.
+    - `refine_steps`: extra Newton steps from the best inverse candidate;
+    - `robust_iterations`: refits of each local fit with the neighbours' bisquare robustness
+      weights (Cleveland's LOWESS): a neighbour whose residual exceeds `ROBUST_CUTOFF`
+      times the median residual of its fit gets no weight, so a few rows unlike the rest
+      (the robot blocked by a wall among free moves) no longer bend the fit; 0: plain fits.
     """
 
     def __init__(self, dx: int, dy: int, context_dims: Sequence[int] = (), *,
                  k_forward: int = 10, k_inverse: int = 20, ridge: float = 1e-3,
                  x_low: Sequence[float] | np.ndarray | None = None,
                  x_high: Sequence[float] | np.ndarray | None = None,
-                 trust_radius: float = 0.5, damping: float = 1e-2, refine_steps: int = 1):
+                 trust_radius: float = 0.5, damping: float = 1e-2, refine_steps: int = 1,
+                 robust_iterations: int = 0):
         self.dx, self.dy = int(dx), int(dy)
         self.context_dims = tuple(int(d) for d in context_dims)
         if self.dx < 1 or self.dy < 1 or any(d < 1 for d in self.context_dims):
@@ -247,6 +257,9 @@ class LocalLinearModel:
         self.k_forward, self.k_inverse = int(k_forward), int(k_inverse)
         self.ridge, self.damping = float(ridge), float(damping)
         self.trust_radius, self.refine_steps = float(trust_radius), int(refine_steps)
+        if robust_iterations < 0:
+            raise ValueError(f"robust_iterations must be ≥ 0, got {robust_iterations}")
+        self.robust_iterations = int(robust_iterations)
         self.x_low = None if x_low is None else np.asarray(x_low, dtype=np.float64).reshape(-1)
         self.x_high = None if x_high is None else np.asarray(x_high, dtype=np.float64).reshape(-1)
         for bound in (self.x_low, self.x_high):
@@ -284,7 +297,8 @@ class LocalLinearModel:
         """Constructor keyword arguments (besides the dimensions) of this model."""
         return {"k_forward": self.k_forward, "k_inverse": self.k_inverse, "ridge": self.ridge,
                 "x_low": self.x_low, "x_high": self.x_high, "trust_radius": self.trust_radius,
-                "damping": self.damping, "refine_steps": self.refine_steps}
+                "damping": self.damping, "refine_steps": self.refine_steps,
+                "robust_iterations": self.robust_iterations}
 
     def add(self, x: np.ndarray, c: np.ndarray | None, y: np.ndarray) -> None:
         """Append a batch of rows: x (B, dx), c (B, dc) or None when dc = 0, y (B, dy)."""
@@ -373,6 +387,26 @@ class LocalLinearModel:
         a = np.empty((q, k, used + 1))
         a[:, :, 0] = 1.0
         a[:, :, 1:] = (self._data[nb, :used] - z[:, None, :used]) * inv[:used]
+        theta = self._solve(a, w, y_nb, used)
+        if self.robust_iterations and k > used + 1:
+            # The residual scale floor keeps neighbours that a fit matches to rounding error
+            # (duplicated rows) from making every other neighbour an outlier.
+            floor = _ROBUST_FLOOR * np.maximum(
+                np.sqrt(np.mean(np.square(y_nb), axis=(1, 2))), 1e-12)[:, None]
+            for _ in range(self.robust_iterations):
+                res = np.linalg.norm(np.matmul(a, theta) - y_nb, axis=2)
+                s = np.maximum(np.median(res, axis=1, keepdims=True), floor)
+                u = np.minimum(res / (ROBUST_CUTOFF * s), 1.0)
+                # A vanishing (not null) weight keeps every fit well posed.
+                theta = self._solve(a, w * np.maximum(np.square(1.0 - np.square(u)), 1e-6),
+                                    y_nb, used)
+        slopes = np.zeros((q, m, self.dy))
+        slopes[:, :used] = theta[:, 1:]
+        return _LocalFit(theta[:, 0], slopes)
+
+    def _solve(self, a: np.ndarray, w: np.ndarray, y_nb: np.ndarray, used: int) -> np.ndarray:
+        """The weighted ridge solution θ (Q, used + 1, dy) of y ≈ a·θ over each query's
+        neighbours."""
         aw = a * w[:, :, None]
         gram = np.matmul(aw.transpose(0, 2, 1), a)
         rhs = np.matmul(aw.transpose(0, 2, 1), y_nb)
@@ -381,10 +415,7 @@ class LocalLinearModel:
             d = gram[:, diag, diag]
             d += self.ridge * d + 1e-9 * d.mean(axis=1, keepdims=True) + 1e-12
             gram[:, diag, diag] = d
-        theta = np.linalg.solve(gram, rhs)
-        slopes = np.zeros((q, m, self.dy))
-        slopes[:, :used] = theta[:, 1:]
-        return _LocalFit(theta[:, 0], slopes)
+        return np.linalg.solve(gram, rhs)
 
     def _jacobian_of(self, fit: _LocalFit) -> np.ndarray:
         sx = self._indexes[_FORWARD].scale.values[0]
@@ -564,7 +595,8 @@ class LocalLinearModel:
         return {
             "x": x.copy(), "c": c.copy(), "y": y.copy(),
             "dims": np.array([self.dx, self.dy, *self.context_dims], dtype=np.int64),
-            "k": np.array([self.k_forward, self.k_inverse, self.refine_steps], dtype=np.int64),
+            "k": np.array([self.k_forward, self.k_inverse, self.refine_steps,
+                           self.robust_iterations], dtype=np.int64),
             "reals": np.array([self.ridge, self.trust_radius, self.damping]),
             "x_low": empty if self.x_low is None else self.x_low.copy(),
             "x_high": empty if self.x_high is None else self.x_high.copy(),
@@ -593,6 +625,8 @@ class LocalLinearModel:
         k, reals = state["k"], state["reals"]
         return {
             "k_forward": int(k[0]), "k_inverse": int(k[1]), "refine_steps": int(k[2]),
+            # States saved before robust fits existed hold three values.
+            "robust_iterations": int(k[3]) if k.size > 3 else 0,
             "ridge": float(reals[0]), "trust_radius": float(reals[1]), "damping": float(reals[2]),
             "x_low": state["x_low"] if state["x_low"].size else None,
             "x_high": state["x_high"] if state["x_high"].size else None,

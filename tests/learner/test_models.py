@@ -214,3 +214,64 @@ def test_bad_shapes_are_rejected() -> None:
         model.add(np.zeros((3, 3)), np.zeros((3, 2)), np.zeros((3, 2)))
     with pytest.raises(ValueError):
         model.add(np.full((1, 2), np.nan), np.zeros((1, 2)), np.zeros((1, 2)))
+
+
+def blocked_data(rng: np.random.Generator, n: int, share: float, noise: float = 0.002):
+    """A linear map of a 2-D input with a `share` of rows whose outcome is null (a robot
+    blocked by a wall among free moves)."""
+    x = rng.uniform(-1, 1, (n, 2))
+    y = x @ A.T + rng.normal(0, noise, (n, 2))
+    blocked = rng.random(n) < share
+    y[blocked] = 0.0
+    return x, y, blocked
+
+
+def test_robust_fits_ignore_a_few_blocked_rows() -> None:
+    rng = np.random.default_rng(11)
+    x, y, _ = blocked_data(rng, 2000, 0.05)
+    xq, yq, _ = blocked_data(rng, 300, 0.0)
+    errors = {}
+    for robust in (0, 1):
+        model = LocalLinearModel(2, 2, robust_iterations=robust)
+        model.add(x, None, y)
+        errors[robust] = np.linalg.norm(model.predict(xq) - yq, axis=1)
+    # Plain fits are pulled toward the null outcomes of their blocked neighbours.
+    assert np.percentile(errors[0], 90) > 0.08
+    assert np.percentile(errors[1], 90) < 0.04
+    assert np.percentile(errors[1], 75) < 0.3 * np.percentile(errors[0], 75)
+
+
+def test_robust_fits_leave_clean_data_alone() -> None:
+    rng = np.random.default_rng(12)
+    x, c, y = linear_data(rng, 1500, noise=0.002)
+    xq, cq, _ = linear_data(rng, 100)
+    plain = LocalLinearModel(2, 2, [2])
+    robust = LocalLinearModel(2, 2, [2], robust_iterations=2)
+    for m in (plain, robust):
+        m.add(x, c, y)
+    np.testing.assert_allclose(robust.predict(xq, cq), plain.predict(xq, cq), atol=0.01)
+
+
+def test_a_robust_fit_does_not_depend_on_the_other_queries_of_its_batch() -> None:
+    rng = np.random.default_rng(13)
+    # Noise-free: the clean neighbours fit exactly, and the residual scale is its floor.
+    x, y, _ = blocked_data(rng, 800, 0.1, noise=0.0)
+    model = LocalLinearModel(2, 2, robust_iterations=1)
+    model.add(x, None, y)
+    xq = rng.uniform(-1, 1, (40, 2)) * np.linspace(0.05, 1.0, 40)[:, None]
+    together = model.predict(xq)
+    alone = np.concatenate([model.predict(xq[i:i + 1]) for i in range(40)])
+    np.testing.assert_array_equal(together, alone)
+
+
+def test_robust_iterations_survive_a_state_round_trip_and_old_states_are_plain() -> None:
+    rng = np.random.default_rng(14)
+    x, y, _ = blocked_data(rng, 400, 0.1)
+    model = LocalLinearModel(2, 2, robust_iterations=1)
+    model.add(x, None, y)
+    copy = LocalLinearModel.from_state(model.state())
+    assert copy.robust_iterations == 1
+    np.testing.assert_array_equal(copy.predict(x[:20]), model.predict(x[:20]))
+    old = model.state()
+    old["k"] = old["k"][:3]  # a state saved before robust fits existed
+    assert LocalLinearModel.from_state(old).robust_iterations == 0

@@ -2,18 +2,23 @@
 
 from __future__ import annotations
 
+import dataclasses
+
 import numpy as np
+import pytest
 
 from hadim_cli.config import LearnerConfig, WorldConfig
 from hadim_cli.learner.affordance import Fitter
 from hadim_cli.learner.dataset import Dataset
-from hadim_cli.learner.spaces import Property, Role, RoleSpace, SpaceReader
+from hadim_cli.learner.spaces import ACTION, Property, Role, RoleSpace, SpaceReader
 from hadim_cli.world.scene import ObjectSpec, Scene
 from hadim_cli.world.world import World
 
 TOOL_POS = RoleSpace(Role.TOOL, Property.POSITION)
 TARGET_POS = RoleSpace(Role.TARGET, Property.POSITION)
 GREEN = (0.2, 0.8, 0.2)
+ROBOT_POS = RoleSpace(Role.ROBOT, Property.POSITION)
+REL = RoleSpace(Role.TARGET, Property.POSITION, Role.ROBOT)
 
 
 def _push_a_chain(world_config: WorldConfig) -> tuple[Fitter, World]:
@@ -46,3 +51,17 @@ def test_tool_rows_drop_targets_the_robot_touches():
     direct = fitter.candidate_rows(RoleSpace(Role.ROBOT, Property.POSITION), TARGET_POS, t)
     assert obj1 in direct.rows.target[fitter.nonzero(direct.y)].tolist()
     assert fitter.touching_robot(direct.rows).any()
+
+
+@pytest.mark.parametrize("relation_frames", [False, True])
+def test_the_learner_config_sets_the_robustness_of_every_new_model(relation_frames):
+    """`learner.robust_fit` reaches the models of new affordances (a framed model's too)."""
+    for robust in (0, 2):
+        config = dataclasses.replace(LearnerConfig(), robust_fit=robust,
+                                     relation_frames=relation_frames)
+        fitter = Fitter(Dataset(World(WorldConfig()).layout.size),
+                        SpaceReader(World(WorldConfig()).layout), config)
+        for inp, out, contexts in ((ACTION, ROBOT_POS, ()), (ROBOT_POS, TARGET_POS, (REL,))):
+            model = fitter.new_model(inp, out, contexts)
+            assert getattr(model, "inner", model).robust_iterations == robust
+            assert model.params()["robust_iterations"] == robust
