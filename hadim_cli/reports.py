@@ -58,6 +58,34 @@ def affordance_rows(session: Session) -> list[dict[str, Any]]:
     return rows
 
 
+def error_rows(session: Session) -> list[dict[str, Any]]:
+    """Each affordance's forward model on its own rows, each left out of its own fit
+    (`competence.held_out_errors`): what a planner using it can expect."""
+    from hadim_cli.learner.competence import held_out_errors
+
+    return [{"id": aff.id, "input": aff.input.name, "output": aff.output.name,
+             "context": [c.name for c in aff.contexts], "rows": aff.model.n,
+             "errors": held_out_errors(aff.model)} for aff in session.learner.hierarchy]
+
+
+def render_errors(console: Console, rows: list[dict[str, Any]], iteration: int) -> None:
+    table = Table(title=f"held-out error of each forward model at iteration {iteration}",
+                  caption="each row predicted with itself left out; in the output's units "
+                          "(m for positions, unit-vector change for a heading)")
+    table.add_column("id", no_wrap=True)
+    table.add_column("input → output", no_wrap=True)
+    table.add_column("context", no_wrap=True)
+    table.add_column("rows", justify="right", no_wrap=True)
+    for col in ("p50", "p90", "p99", "max"):
+        table.add_column(col, justify="right", no_wrap=True)
+    for r in rows:
+        e = r["errors"]
+        cells = ["–"] * 4 if e is None else [f"{e[k]:.3f}" for k in ("p50", "p90", "p99", "max")]
+        table.add_row(f"A{r['id']}", f"{r['input']}\n→ {r['output']}", _names(r["context"]),
+                      str(r["rows"]), *cells)
+    console.print(table)
+
+
 def render_h_table(console: Console, rows: list[dict[str, Any]], iteration: int) -> None:
     table = Table(title=f"H at iteration {iteration} ({len(rows)} affordances)")
     table.add_column("id", no_wrap=True)

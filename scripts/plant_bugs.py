@@ -58,6 +58,30 @@ BUGS = (
         "np.sqrt(np.mean(np.square(y_nb))), 1e-12)",
         "tests/learner/test_models.py::test_a_robust_fit_does_not_depend_on_the_other_queries_"
         "of_its_batch"),
+    Bug("free-motion-not-configured", "hadim_cli/learner/affordance.py",
+        "if inp is ACTION and out.role is Role.ROBOT and self.config.free_motion:",
+        "if inp is ACTION and out.role is Role.ROBOT:",
+        "tests/learner/test_tool_rows.py::test_the_robots_motion_is_learned_from_moves_clear_"
+        "of_everything"),
+    Bug("free-motion-before-only", "hadim_cli/learner/affordance.py",
+        "clear = (before.min(axis=1) > reach) & (after.min(axis=1) > reach)",
+        "clear = before.min(axis=1) > reach",
+        "tests/learner/test_tool_rows.py::test_the_robots_motion_is_learned_from_moves_clear_"
+        "of_everything"),
+    Bug("free-motion-objects-ignored", "hadim_cli/learner/affordance.py",
+        "clear &= ~self.touching(bound, Role.ROBOT, after=True)",
+        "clear &= True",
+        "tests/learner/test_tool_rows.py::test_the_robots_motion_is_learned_from_moves_clear_"
+        "of_everything"),
+    Bug("held-out-errors-in-sample", "hadim_cli/learner/competence.py",
+        "e = np.linalg.norm(model.predict_loo() - y, axis=1)",
+        "e = np.linalg.norm(model.predict(*model.data()[:2]) - y, axis=1)",
+        "tests/learner/test_competence.py::test_held_out_errors_leave_each_row_out_of_its_own_"
+        "fit"),
+    Bug("pursuits-only-when-recording", "hadim_cli/evaluation/runner.py",
+        "learner.planner, record)", "learner.planner if record else None, record)",
+        "tests/test_eval_diagnostics.py::test_points_count_their_actions_by_what_the_planner_"
+        "pursued"),
     Bug("scripted-no-steering", "hadim_cli/evaluation/scripted.py",
         "STEERING = True", "STEERING = False",
         "tests/test_scripted_controller.py::test_the_tool_pushes_the_target_off_its_start"

@@ -98,6 +98,7 @@ def test_unknown_run(runner, trained, args):
     (("affordances", "run-1", "--at", 10), "no checkpoint at or before"),
     (("affordances", "run-1", "--timeline", "--out", "{nodir}"), "cannot write"),
     (("affordances", "run-1", "--pa", "--timeline"), "not with --timeline"),
+    (("affordances", "run-1", "--errors", "--pa"), "not with --pa"),
     (("fork", "run-1", "--at", 1000), "it has only 100 iterations"),
     (("fork", "run-1", "--at", 10), "its first checkpoint is at iteration 25"),
     (("fork", "run-1", "--set", "world.nope=1"), "unknown config key 'world.nope'"),
@@ -265,6 +266,15 @@ def test_affordances_now_at_and_timeline(runner, trained, tmp_path):
                            trained).stdout):  # (the rendering: tests/learner/test_p_a_pooled.py)
         assert {"id", "affordance", "scene", "unseen", "scene_right", "unseen_right",
                 "replay"} <= v.keys()
+    h = json.loads(ok(runner, "affordances", "run-1", "--json", "--store", trained).stdout)
+    errors = json.loads(ok(runner, "affordances", "run-1", "--errors", "--json", "--store",
+                           trained).stdout)
+    assert [(e["id"], e["rows"]) for e in errors] == [(a["id"], a["data"]) for a in h]
+    for e in errors:  # (what they measure: test_competence.py)
+        q = e["errors"]
+        assert q is None or 0.0 <= q["p50"] <= q["p90"] <= q["p99"] <= q["max"]
+    assert "held-out error" in ok(runner, "affordances", "run-1", "--errors", "--store",
+                                  trained).stdout
 
 
 def test_eval_json_and_a_user_points_file(runner, trained, points_file, tmp_path):

@@ -28,7 +28,7 @@ def store(tmp_path_factory) -> Path:
 
     path = tmp_path_factory.mktemp("diag") / "s.sqlite"
     result = invoke(CliRunner(), "train", "--iterations", ITERATIONS, "--eval-every", 0,
-                    "--seed", 1, "--store", path, "--set", "planner.navigation=true",
+                    "--seed", 2, "--store", path, "--set", "planner.navigation=true",
                     "--set", "planner.avoid_margin=0.07")
     assert result.exit_code == 0, result.stderr
     return path
@@ -66,6 +66,29 @@ def test_points_report_actions_path_trips_and_line_deviation(runner, store):
         assert p["robot_path"] >= 0 and p["trips"] >= 0 and p["line_deviation"] >= 0
     # A robot that moved drove a path at least as long as its displacement.
     assert any(p["robot_path"] > 0 for p in points)
+
+
+def test_points_count_their_actions_by_what_the_planner_pursued(store):
+    """`pursuits`: every action of a point counted once, under the chain of pursuits the
+    planner was in when it chose it (what an animation shows, step by step)."""
+    from collections import Counter
+
+    from hadim_cli import runs
+    from hadim_cli.evaluation.runner import evaluate
+
+    with runs.open_store(str(store), create=False) as st:
+        session = runs.restore_session(st, st.get_run("run-1"))
+    result = evaluate(session.learner, session.config.world, load_task("push-line"),
+                      record=True)
+    plain = evaluate(session.learner, session.config.world, load_task("push-line"))
+    assert [p.pursuits for p in plain.points] == [p.pursuits for p in result.points]
+    for p, rec in zip(result.points, result.recordings, strict=True):
+        assert sum(p.pursuits.values()) == p.actions == len(rec.steps)
+        seen = Counter(" / ".join(s.labels[1:]) or s.labels[0] for s in rec.steps)
+        assert p.pursuits == dict(seen)
+        assert list(p.pursuits.values()) == sorted(p.pursuits.values(), reverse=True)
+    # The push levels below the goal: the robot driving to a place, then pushing.
+    assert any("navigate robot.position" in k for p in result.points for k in p.pursuits)
 
 
 def test_the_pose_task_scores_heading_and_position():

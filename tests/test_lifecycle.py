@@ -471,6 +471,7 @@ def test_a_second_ctrl_c_aborts_the_episode(runner, tmp_path, monkeypatch):
     kw = ("--seed", SEED, "--set", "world.episode_length=20", "--eval-every", 0,
           "--store", store)
     monkeypatch.setattr(TrainingActuator, "act", act_and_interrupt)
+    handler = signal.getsignal(signal.SIGINT)  # ignored, in a job started in the background
     result = invoke(runner, "train", "--iterations", 60, *kw)
     monkeypatch.setattr(TrainingActuator, "act", act)
     assert result.exit_code == 130, (result.stderr, result.exception)
@@ -479,7 +480,7 @@ def test_a_second_ctrl_c_aborts_the_episode(runner, tmp_path, monkeypatch):
            f"--store {store}" in result.stderr
     info = show(runner, store, "run-1")
     assert info["status"] == "paused" and info["iterations"] == 20
-    assert signal.getsignal(signal.SIGINT) is signal.default_int_handler
+    assert signal.getsignal(signal.SIGINT) is handler
 
     ok(runner, "resume", "run-1", "--iterations", 60, "--eval-every", 0, "--store", store)
     ok(runner, "train", "--iterations", 60, *kw)

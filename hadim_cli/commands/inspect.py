@@ -147,6 +147,9 @@ def affordances(
     pa: Annotated[bool, typer.Option(
         "--pa", help="p_A of each affordance on the reference scene's entities and on objects "
         "of sizes and shades never seen in training.")] = False,
+    errors: Annotated[bool, typer.Option(
+        "--errors", help="Each forward model's error on its own rows, each left out of its "
+        "own fit (m for positions).")] = False,
     store: StoreOption = None,
     as_json: JsonOption = False,
 ) -> None:
@@ -156,6 +159,9 @@ def affordances(
 
     if pa and (timeline or out is not None):
         raise HadimError("--pa shows p_A of H at one iteration: not with --timeline or --out")
+    if errors and (pa or timeline or out is not None):
+        raise HadimError("--errors shows the models of H at one iteration: not with --pa, "
+                         "--timeline or --out")
     with runs.open_store(store, create=False, writes=False) as st:
         record = st.get_run(run)
         _refuse_baseline(record, "affordances")
@@ -183,6 +189,15 @@ def affordances(
             typer.echo(json.dumps([v.as_json() for v in found], indent=2))
         else:
             render_p_a(_console(), found, session.iteration)
+        return
+    if errors:
+        from hadim_cli.reports import error_rows, render_errors
+
+        found = error_rows(session)
+        if as_json:
+            typer.echo(json.dumps(found, indent=2))
+        else:
+            render_errors(_console(), found, session.iteration)
         return
     rows = affordance_rows(session)
     if as_json:

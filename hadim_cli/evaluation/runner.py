@@ -6,7 +6,7 @@ numbers and evaluation never writes to D, H or any generator of the learner.
 
 from __future__ import annotations
 
-from dataclasses import asdict, dataclass
+from dataclasses import asdict, dataclass, field
 
 import numpy as np
 
@@ -38,6 +38,13 @@ class PointResult:
     line_deviation: float = 0.0
     """Largest distance (m) of the driven entity from the straight line start → point: how
     far off the line it was pushed (or drove)."""
+    pursuits: dict[str, int] = field(default_factory=dict)
+    """Actions by what the planner pursued when it chose them, below the task's own goal:
+    its chain of pursuits joined by " / ", outermost first (the goal's own affordance when
+    it acts directly; e.g. `place target-tool for A6 /
+    A4 target.position / place target-robot for A4 / navigate robot.position`: the robot
+    driving to push the tool into place), most actions first. Where the budget went, level
+    by level."""
 
 
 @dataclass(frozen=True)
@@ -80,7 +87,7 @@ class EvalActuator:
     """Steps the evaluation world within a budget, watching robot–target contacts."""
 
     def __init__(self, world: World, obs: np.ndarray, budget: int, watch: str | None,
-                 planner: Planner | None = None):
+                 planner: Planner | None = None, record: bool = False):
         self.world = world
         self._obs = obs
         self.budget = budget
@@ -88,7 +95,10 @@ class EvalActuator:
         self.watch = tuple(sorted(("robot", watch))) if watch else None
         self.touched = False
         self.planner = planner
-        """When given, each action is recorded with what `planner` pursued."""
+        """When given, each action is counted by what `planner` pursued (`pursuits`), and
+        with `record` kept with the observation after it."""
+        self.record = record
+        self.pursuits: dict[str, int] = {}
         self.observations = [obs.copy()]
         self.steps: list[Step] = []
         self.path = 0.0
@@ -120,9 +130,13 @@ class EvalActuator:
             self.deviation = max(self.deviation, segment_distance(pos, a, b))
         if self.planner is not None:
             stack = self.planner.stack
-            self.steps.append(Step(tuple(p.label for p in stack),
-                                   tuple(tuple(map(float, p.goal)) for p in stack)))
-            self.observations.append(self._obs.copy())
+            labels = [p.label for p in stack]
+            chain = " / ".join(labels[1:]) or (labels[0] if labels else "")
+            self.pursuits[chain] = self.pursuits.get(chain, 0) + 1
+            if self.record:
+                self.steps.append(Step(tuple(p.label for p in stack),
+                                       tuple(tuple(map(float, p.goal)) for p in stack)))
+                self.observations.append(self._obs.copy())
         if self.watch is not None and self.watch in self.world.last_contacts:
             self.touched = True
         return self._obs
@@ -189,7 +203,7 @@ def evaluate(learner: Learner, world_config: WorldConfig, task: Task,
         entity = 0 if task.entity == "robot" else target
         start = learner.reader.entity_position(obs, entity).copy()
         actuator = EvalActuator(world, obs, task.budget, task.target if task.tool else None,
-                                learner.planner if record else None)
+                                learner.planner, record)
         actuator.follow(entity, start, np.asarray(point))
         start_heading = _heading(world)
         if aff is not None:
@@ -205,7 +219,9 @@ def evaluate(learner: Learner, world_config: WorldConfig, task: Task,
         results.append(PointResult(tuple(point), tuple(map(float, start)),
                                    tuple(map(float, final)), error, actuator.used,
                                    -1 if aff is None else aff.id, actuator.touched,
-                                   actuator.path, trips, actuator.deviation))
+                                   actuator.path, trips, actuator.deviation,
+                                   dict(sorted(actuator.pursuits.items(),
+                                               key=lambda kv: (-kv[1], kv[0])))))
         if record:
             recordings.append(Recording(task.name, tuple(map(float, point)),
                                         np.stack(actuator.observations), tuple(actuator.steps),

@@ -163,6 +163,8 @@ class Fitter:
         sample = self.values(inp, out, (), rows)
         if inp is not ACTION:
             sample = sample.take(np.flatnonzero(self.nonzero(sample.x)))
+        if inp is ACTION and out.role is Role.ROBOT and self.config.free_motion:
+            sample = sample.take(np.flatnonzero(self.moved_clear(sample.rows)))
         if Role.TOOL in roles:
             # Through a tool means not by the robot's own body: a target the robot touches is
             # the direct pushing affordance's outcome, and would hide the tool's relation.
@@ -184,6 +186,22 @@ class Fitter:
             sample = new if sample is None else sample.concat(new)
             self._candidates[key] = (n, sample)
         return sample
+
+    def moved_clear(self, rows: Rows) -> np.ndarray:
+        """Rows whose action the robot took clear of everything (`LearnerConfig.free_motion`):
+        no object within contact plus `CONTACT_MARGIN`, and no LIDAR ray (walls, objects)
+        shorter than the robot's radius plus that margin, before and after the action."""
+        d = self.dataset
+        lidar = RoleSpace(Role.ROBOT, Property.LIDAR)
+        before = self.reader.read(lidar, d.contexts, rows)
+        after = before + self.reader.read(lidar, d.outcomes, rows)
+        reach = self.reader.read(RoleSpace(Role.ROBOT, Property.RADIUS), d.contexts,
+                                 rows)[:, 0] + CONTACT_MARGIN
+        clear = (before.min(axis=1) > reach) & (after.min(axis=1) > reach)
+        for entity in range(1, self.n_entities):
+            bound = Rows(rows.t, np.full(len(rows), entity, dtype=np.int64), rows.tool)
+            clear &= ~self.touching(bound, Role.ROBOT, after=True)
+        return clear
 
     def touching_robot(self, rows: Rows) -> np.ndarray:
         """Rows whose target is in contact with the robot before or after the action."""

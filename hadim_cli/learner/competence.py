@@ -112,3 +112,20 @@ def range_scale(y: np.ndarray, zero_eps: float, quantile: float = 0.95) -> float
     norms = np.linalg.norm(y, axis=1)
     norms = norms[norms > zero_eps]
     return 2.0 * float(np.quantile(norms, quantile)) if norms.size else 1.0
+
+
+ERROR_QUANTILES = (50, 90, 99, 100)
+"""Percentiles of `held_out_errors` (100: the largest)."""
+
+
+def held_out_errors(model: Model) -> dict[str, float] | None:
+    """The forward model's error on each of its own rows, left out of its own fit: the
+    distance (in the output's units) between what it predicts for a row it never saw and what
+    happened, as percentiles (`ERROR_QUANTILES`) over all rows; None under two rows."""
+    if model.n < 2:
+        return None
+    _, _, y = model.data()
+    e = np.linalg.norm(model.predict_loo() - y, axis=1)
+    values = np.percentile(e, ERROR_QUANTILES)
+    return {f"p{q}" if q < 100 else "max": float(v) for q, v in zip(ERROR_QUANTILES, values,
+                                                                    strict=True)}

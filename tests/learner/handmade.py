@@ -78,11 +78,12 @@ class Room:
               noise: bool = False) -> np.ndarray:
         """`n` actions of a differential drive: forward by STEP·mean(action) along the heading,
         turning by 0.3·(right − left). The heading is random per row unless given; with
-        `noise`, the displacement is random instead (nothing to learn). Returns iterations."""
+        `noise`, the displacement is random instead (nothing to learn). The robot stays clear
+        of the parked objects (a free move: `LearnerConfig.free_motion`). Returns iterations."""
         start = len(self.dataset)
         for _ in range(n):
             theta = rng.uniform(-np.pi, np.pi) if heading is None else heading
-            self.place("robot", rng.uniform(-1.5, 1.5, 2))
+            self.place("robot", rng.uniform((-1.5, -1.5), (1.5, 1.0)))
             self.set("robot", Property.HEADING, [np.cos(theta), np.sin(theta)])
             self.set("robot", Property.LIDAR, rng.uniform(0.2, 1.5, 4))
             action = rng.uniform(-1.0, 1.0, 2)

@@ -3,10 +3,12 @@
 from __future__ import annotations
 
 import numpy as np
+import pytest
 
 from hadim_cli.learner.competence import (
     competence_of_error,
     evaluation_rows,
+    held_out_errors,
     model_competence,
     normalised_errors,
     split_zero,
@@ -122,3 +124,19 @@ def test_learning_progress() -> None:
     assert learning_progress([], 10) == 0.0
     np.testing.assert_allclose(learning_progress([0.0, 0.0, 1.0, 1.0, 1.0], 4), 0.5)
     assert learning_progress(rising[::-1], 20) == learning_progress(rising, 20)
+
+
+def test_held_out_errors_leave_each_row_out_of_its_own_fit() -> None:
+    """`hadim affordances --errors`: a row unlike its neighbours is predicted from them
+    alone. Rows on y = 2x and one 1 too high: its held-out error is the whole 1 (in-sample,
+    its own weight would pull the fit towards it), every other row's is small."""
+    model = LocalLinearModel(1, 1, k_forward=6)
+    x = np.linspace(0.0, 1.0, 41)
+    y = 2 * x
+    y[20] += 1.0
+    model.add(x[:, None], None, y[:, None])
+    e = held_out_errors(model)
+    assert e is not None and set(e) == {"p50", "p90", "p99", "max"}
+    assert e["max"] == pytest.approx(1.0, abs=0.05)
+    assert e["p50"] < 0.05
+    assert held_out_errors(LocalLinearModel(1, 1)) is None

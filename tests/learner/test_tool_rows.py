@@ -65,3 +65,53 @@ def test_the_learner_config_sets_the_robustness_of_every_new_model(relation_fram
             model = fitter.new_model(inp, out, contexts)
             assert getattr(model, "inner", model).robust_iterations == robust
             assert model.params()["robust_iterations"] == robust
+
+
+def _drive_into(world_config: WorldConfig, scene: Scene, action, n: int,
+                free_motion: bool) -> tuple[Fitter, np.ndarray]:
+    """`n` times `action` from `scene`; the Fitter over them and the robot's positions."""
+    world = World(world_config)
+    obs = world.reset(scene=scene)
+    dataset = Dataset(world.layout.size)
+    dataset.start_episode()
+    positions = [world.robot_pose()[:2]]
+    for _ in range(n):
+        before, obs = obs, world.step(np.asarray(action, dtype=float))
+        dataset.append(np.asarray(action, dtype=float), before, obs)
+        positions.append(world.robot_pose()[:2])
+    config = dataclasses.replace(LearnerConfig(), free_motion=free_motion)
+    return Fitter(dataset, SpaceReader(world.layout), config), np.asarray(positions)
+
+
+@pytest.mark.parametrize("free_motion", [True, False])
+def test_the_robots_motion_is_learned_from_moves_clear_of_everything(free_motion):
+    """With `learner.free_motion`, the rows of the robot's own motion (action → robot
+    position, heading) are the actions taken clear of walls (seen by its one LIDAR ray,
+    ahead) and of objects (from their relative positions: the object is behind, where no ray
+    looks); pressed against either, the robot does not move as its wheels say."""
+    config = dataclasses.replace(WorldConfig(), lidar_rays=1)
+    parked = [ObjectSpec(-1.6 + 0.4 * i, 1.7, 0.1, 0.2, (0.8, 0.2, 0.2), False)
+              for i in range(config.n_green + config.n_red - 1)]
+    reach = config.robot_radius + 0.02  # + affordance.CONTACT_MARGIN
+    # Full forward, facing −y from the centre: 0.15 m per action into the wall at y = −2.
+    wall = Scene((ObjectSpec(1.5, 0.0, 0.1, 0.2, GREEN, True), *parked), 0.0, -0.5,
+                 -np.pi / 2)
+    # Full reverse, facing +x, towards a red object 0.6 m behind: pressed against it.
+    red = Scene((ObjectSpec(-0.6, 0.0, 0.1, 0.2, (0.8, 0.2, 0.2), False), *parked),
+                0.0, 0.0, 0.0)
+    for scene, action, gap in ((wall, (1.0, 1.0), lambda p: p[:, 1] + 2.0),
+                               (red, (-1.0, -1.0), lambda p: p[:, 0] + 0.6 - 0.1)):
+        fitter, pos = _drive_into(config, scene, action, 12, free_motion)
+        t = np.arange(len(fitter.dataset), dtype=np.int64)
+        for out in (ROBOT_POS, RoleSpace(Role.ROBOT, Property.HEADING)):
+            kept = np.zeros(t.size, dtype=bool)
+            kept[fitter.candidate_rows(ACTION, out, t).rows.t] = True
+            g = gap(pos)
+            clear = (g[:-1] > reach) & (g[1:] > reach)
+            stuck = np.linalg.norm(np.diff(pos, axis=0), axis=1) < 0.05
+            assert stuck.sum() >= 3 and (~stuck).sum() >= 3  # the scene has both
+            if free_motion:
+                assert np.array_equal(kept, clear)
+                assert not kept[stuck].any()
+            else:
+                assert kept.all()
