@@ -69,8 +69,7 @@ BUGS = (
         "tests/learner/test_tool_rows.py::test_the_robots_motion_is_learned_from_moves_clear_"
         "of_everything"),
     Bug("free-motion-objects-ignored", "hadim_cli/learner/affordance.py",
-        "clear &= ~self.touching(bound, Role.ROBOT, after=True)",
-        "clear &= True",
+        "return clear & ~touched.any(axis=1)", "return clear",
         "tests/learner/test_tool_rows.py::test_the_robots_motion_is_learned_from_moves_clear_"
         "of_everything"),
     Bug("held-out-errors-in-sample", "hadim_cli/learner/competence.py",

@@ -134,7 +134,7 @@ class EvalActuator:
             chain = " / ".join(labels[1:]) or (labels[0] if labels else "")
             self.pursuits[chain] = self.pursuits.get(chain, 0) + 1
             if self.record:
-                self.steps.append(Step(tuple(p.label for p in stack),
+                self.steps.append(Step(tuple(labels),
                                        tuple(tuple(map(float, p.goal)) for p in stack)))
                 self.observations.append(self._obs.copy())
         if self.watch is not None and self.watch in self.world.last_contacts:

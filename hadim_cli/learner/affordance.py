@@ -198,10 +198,9 @@ class Fitter:
         reach = self.reader.read(RoleSpace(Role.ROBOT, Property.RADIUS), d.contexts,
                                  rows)[:, 0] + CONTACT_MARGIN
         clear = (before.min(axis=1) > reach) & (after.min(axis=1) > reach)
-        for entity in range(1, self.n_entities):
-            bound = Rows(rows.t, np.full(len(rows), entity, dtype=np.int64), rows.tool)
-            clear &= ~self.touching(bound, Role.ROBOT, after=True)
-        return clear
+        objects = self.bindings(frozenset({Role.TARGET}), rows.t)  # every object, row by row
+        touched = self.touching(objects, Role.ROBOT, after=True).reshape(len(rows), -1)
+        return clear & ~touched.any(axis=1)
 
     def touching_robot(self, rows: Rows) -> np.ndarray:
         """Rows whose target is in contact with the robot before or after the action."""
