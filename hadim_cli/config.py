@@ -364,6 +364,13 @@ class PlannerConfig:
     slid along the target's side is pushed on and back behind it), instead of a trip to the
     needed place. Off: the fixed rule (`realign`) decides between pushing on as is and a
     trip."""
+    pursue_line: bool = True
+    """With `hold_relation`: the input heads for the point one inverse-model step ahead of it
+    on the line it must push along (from its place in the needed relation to the output now,
+    toward the goal): pure pursuit, which brings an input off the line back onto it and turns
+    its contact with the output back onto the way. Off: it heads for its final place (the goal
+    less the needed relation), which corrects a lateral offset only as slowly as the distance
+    left allows while the contact slides further off."""
     hold_relation: bool = True
     """An input that is itself an object pushed by another affordance (the tool of
     `tool.position → target.position`) heads, while its relation to the output is within
@@ -372,6 +379,13 @@ class PlannerConfig:
     fresh inverse answer and steering each step. Its direction then stays put between steps,
     and every change of it would cost its pusher a trip round it. Off: the inverse answer
     and `steer` as for any input."""
+    pose_places: bool = True
+    """An affordance acting from the robot's actions with the robot's heading as a context
+    besides a relation (`action → target.position | target-robot, robot.heading`): the place it
+    pushes from is chosen with the heading of the data there (pushes like the wanted one were
+    made facing it), and the robot drives there arriving facing it, in one trip. Off: the
+    heading needed is the one the robot had before the trip, and the robot turns back to it
+    after driving there."""
     replace_by_cost: bool = False
     """Re-place only when the trip (its estimated actions) plus pushing from the new place
     costs less than pushing on from here at the rate the forward model predicts; off: the
@@ -546,7 +560,8 @@ def config_from_dict(values: Mapping[str, Any]) -> Config:
 LEGACY_DEFAULTS: dict[str, dict[str, Any]] = {
     "learner": {"surface_relations": False, "relation_frames": False, "context_splits": 1,
                 "p_a_pooled": False, "free_motion": False},
-    "planner": {"navigation": False, "steer": False, "hold_relation": False},
+    "planner": {"navigation": False, "steer": False, "hold_relation": False,
+                "pose_places": False, "pursue_line": False},
 }
 """Keys added after runs were first stored, with the value that reproduces what a run stored
 without them did (its defaults then): a stored run restores the learner it trained (the

@@ -58,6 +58,21 @@ BUGS = (
         "np.sqrt(np.mean(np.square(y_nb))), 1e-12)",
         "tests/learner/test_models.py::test_a_robust_fit_does_not_depend_on_the_other_queries_"
         "of_its_batch"),
+    Bug("pursue-line-final-place", "hadim_cli/learner/planner.py",
+        "way = behind + u * (min(along, 0.0) + step) - position",
+        "way = goal - offset_now - position",
+        "tests/learner/test_planner.py::test_an_object_input_off_its_line_pursues_a_point_one_"
+        "step_ahead_on_it"),
+    Bug("pose-places-heading-kept", "hadim_cli/learner/planner.py",
+        "return np.array([self.pc.pose_places and space == ROBOT_HEADING",
+        "return np.array([False and space == ROBOT_HEADING",
+        "tests/learner/test_planner.py::test_an_action_pusher_is_placed_with_the_heading_its_"
+        "pushes_were_made_facing"),
+    Bug("pose-places-not-driven", "hadim_cli/learner/planner.py",
+        "actuator, budget - used, depth, then, heading)",
+        "actuator, budget - used, depth, then, None)",
+        "tests/learner/test_planner.py::test_the_place_of_an_action_pusher_is_driven_to_facing_"
+        "its_heading"),
     Bug("free-motion-not-configured", "hadim_cli/learner/affordance.py",
         "if inp is ACTION and out.role is Role.ROBOT and self.config.free_motion:",
         "if inp is ACTION and out.role is Role.ROBOT:",

@@ -35,6 +35,7 @@ from hadim_cli.learner.navigation import (
     Keepout,
     Navigator,
     Place,
+    line_angle,
 )
 from hadim_cli.learner.spaces import ACTION, Property, Role, RoleSpace, SpaceReader
 
@@ -223,7 +224,7 @@ class Planner:
             spreads = self._spreads(aff)
             supported = (self.support_gap(aff, here.x, c, relations, spreads)
                          <= self.pc.place_support)
-            needed = self.needed_context(aff, delta, c, relations)
+            needed = self.needed_context(aff, delta, c, relations | self._poses(aff))
             off = self._gap(aff, spreads, c, needed, relations)
             way = self._way_to_final_place(aff, b, delta, needed, off, goal, obs)
             if way is not None:
@@ -291,9 +292,18 @@ class Planner:
             want = needed[offset:offset + dim]
             offset += dim
             if space.role is aff.output.role and space.relative_to is aff.input.role:
-                final = goal - self.reader.offset_now(space, want, obs, b.target, b.tool)
-                way = final - self.reader.entity_position(obs, mover)
+                offset_now = self.reader.offset_now(space, want, obs, b.target, b.tool)
+                position = self.reader.entity_position(obs, mover)
                 step = float(np.linalg.norm(aff.model.infer(delta, needed).x))
+                if self.pc.pursue_line:
+                    # Pure pursuit of the line the input must push along: from where it stands
+                    # in the needed relation to the output now, toward the goal.
+                    behind = self.value(aff.output, obs, b) - offset_now
+                    u = delta / max(float(np.linalg.norm(delta)), 1e-12)
+                    along = float((position - behind) @ u)
+                    way = behind + u * (min(along, 0.0) + step) - position
+                else:
+                    way = goal - offset_now - position
                 length = float(np.linalg.norm(way))
                 return way if length <= step else way * (step / max(length, 1e-12))
         return None
@@ -405,6 +415,24 @@ class Planner:
         travel = np.linalg.norm((ctx[good] - c) / scale, axis=1)
         return ctx[good[int(np.argmin(travel))]].copy()
 
+    def _poses(self, aff: Affordance) -> np.ndarray:
+        """Per context space of `aff`: whether it is the robot's heading and `pose_places` asks
+        for it to be chosen with the relation (`needed_context`) and taken with the place."""
+        return np.array([self.pc.pose_places and space == ROBOT_HEADING
+                         for space in aff.contexts], dtype=bool)
+
+    def _needed_heading(self, aff: Affordance, needed: np.ndarray) -> np.ndarray | None:
+        """The robot's heading in `needed` when `_poses` chose it (None otherwise)."""
+        poses = self._poses(aff)
+        if not poses.any():
+            return None
+        offset = 0
+        for space, dim, pose in zip(aff.contexts, aff.model.context_dims, poses, strict=True):
+            if pose:
+                return _normalise_heading(space, needed[offset:offset + dim])
+            offset += dim
+        return None
+
     def reachable_relations(self, aff: Affordance) -> np.ndarray:
         """Per context space of `aff`: whether it is a relative position (e.g. target-robot)
         that another affordance can drive. Only such spatial relations are checked for
@@ -436,12 +464,14 @@ class Planner:
         """The context from which `aff` usually produces outcomes like `delta`.
 
         Among the non-null rows whose outcome is nearest `delta` and whose fixed contexts (not in
-        `relations`: e.g. the object's radius) are nearest the current ones, the relation
-        values where most of them agree (a kernel density mode): one push seen from an odd
-        place (a bounce, a chain of contacts) must not send the robot there. The result is `c`
-        with its relation columns replaced. Rows of a model in a relation's frame are first
-        turned so that each outcome points along `delta` (`frames.seen`): every push, from
-        whatever bearing, then shows where a push along `delta` is made from.
+        `relations`, the mask of spaces the planner can drive: a relation such as target-robot,
+        and with `pose_places` the robot's heading; not e.g. the object's radius) are nearest
+        the current ones, the values of the driven spaces where most of them agree (a kernel
+        density mode): one push seen from an odd place (a bounce, a chain of contacts) must not
+        send the robot there. The result is `c` with those columns replaced. Rows of a model
+        in a relation's frame are first turned so that each outcome points along `delta`
+        (`frames.seen`): every push, from whatever bearing, then shows where a push along
+        `delta` is made from.
         """
         x_cols = aff.model.dx
         # A row where nothing moved shows no place an effect comes from (all rows if none moved).
@@ -686,15 +716,19 @@ class Planner:
         way that change moves it)."""
         used = 0
         spreads = self._spreads(aff)
+        heading = self._needed_heading(aff, needed)
         for i, space, driven, goal, sub_b, controllers in self._context_plans(
                 aff, b, needed, actuator.obs):
             current = self.value(driven, actuator.obs, sub_b)
             if np.linalg.norm(goal - current) < 0.25 * self.step_size(aff) + 0.02:
                 continue
+            if (driven == ROBOT_HEADING and heading is not None and self._navigating()
+                    and line_angle(current, goal) <= self.pc.heading_tolerance):
+                continue  # the robot arrived at its place facing the heading needed
             self.stack.append(Pursuit(f"place {space.name} for A{aff.id}", goal, b))
             try:
                 done = self._place(aff, b, i, driven, goal, sub_b, controllers[0], spreads,
-                                   actuator, budget - used, depth, then)
+                                   actuator, budget - used, depth, then, heading)
             finally:
                 self.stack.pop()
             if done < 0:
@@ -706,11 +740,14 @@ class Planner:
 
     def _place(self, aff: Affordance, b: Binding, i: int, driven: RoleSpace, goal: np.ndarray,
                sub_b: Binding, sub: Affordance, spreads: list[float],
-               actuator: Actuator, budget: int, depth: int, then: np.ndarray | None) -> int:
+               actuator: Actuator, budget: int, depth: int, then: np.ndarray | None,
+               heading: np.ndarray | None = None) -> int:
         """Drive `driven` (under `sub_b`) to `goal` so that `aff`'s context space `i` reads
         what it needs; returns actions used, -1 when the place is one the robot cannot take:
         where it would touch the entity it must avoid (a place behind a tool that lies in
-        the target: going for it touched the target)."""
+        the target: going for it touched the target). `heading`: the robot's heading `aff`
+        needs there (`pose_places`); else, for an affordance acting from the robot's position,
+        the heading from which its motion makes the move `then`."""
         used = 0
         if driven == ROBOT_POSITION and b.avoid >= 0 and (
                 np.linalg.norm(goal - self.reader.entity_position(actuator.obs, b.avoid))
@@ -721,8 +758,8 @@ class Planner:
         waypoints = self._waypoints(driven, goal, actuator.obs, b, target_entity)
         space = aff.contexts[i]
         if driven == ROBOT_POSITION and self._navigating() and space.relative_to is not None:
-            heading = (self.heading_for(then, actuator.obs, b)
-                       if then is not None and aff.input == ROBOT_POSITION else None)
+            if heading is None and then is not None and aff.input == ROBOT_POSITION:
+                heading = self.heading_for(then, actuator.obs, b)
             near = b.tool if space.role is Role.TOOL else b.target
             tolerance = max(self.pc.place_support * spreads[i], 0.005)
             places = [Place(w, None, 2 * tolerance) for w in waypoints[:-1]]

@@ -481,6 +481,7 @@ def test_an_object_input_heads_for_where_it_must_be_when_the_output_is_at_its_go
     from dataclasses import replace
 
     planner, obs, _ = _avoid_scene()  # target obj1 at (0.6, 0), tool obj2 at (0.3, 0.5)
+    planner.pc = replace(planner.pc, pursue_line=False)  # the final place itself
     tool_position = RoleSpace(Role.TOOL, Property.POSITION)
     target_tool = RoleSpace(Role.TARGET, Property.POSITION, Role.TOOL)
     step = np.array([0.08, 0.0])
@@ -523,3 +524,125 @@ def test_an_object_input_heads_for_where_it_must_be_when_the_output_is_at_its_go
     planner.execute = lambda space, x, *args, **kw: calls.append(x) or 1
     planner._one_step(aff, b, delta, SimpleNamespace(obs=obs), 80, 0, goal=goal)
     assert np.allclose(calls[0], way)
+
+
+def test_an_object_input_off_its_line_pursues_a_point_one_step_ahead_on_it():
+    """`pursue_line`: the tool heads for the point one inverse-model step ahead of its
+    projection on the line it must push along (from its place in the needed relation to the
+    target now, along the target's step): off that line it comes back within a step, where
+    heading for its final place corrected the offset only as the distance left allowed. On the
+    line, both are the step along it."""
+    from dataclasses import replace
+
+    planner, obs, layout = _avoid_scene()  # target obj1 at (0.6, 0)
+    tool_position = RoleSpace(Role.TOOL, Property.POSITION)
+    target_tool = RoleSpace(Role.TARGET, Property.POSITION, Role.TOOL)
+    model = SimpleNamespace(n=100, context_dims=[2],
+                            infer=lambda delta, c=None: SimpleNamespace(
+                                x=np.array([0.08, 0.0]), y_predicted=np.zeros(2)))
+    aff = SimpleNamespace(id=6, model=model, contexts=(target_tool,), input=tool_position,
+                          output=TARGET_POSITION)
+    b = Binding(target=1, tool=2, avoid=1)
+    want, goal, delta = np.array([0.3, 0.0]), np.array([1.2, 0.0]), np.array([0.06, 0.0])
+    behind = np.array([0.6, 0.0]) - planner.reader.offset_now(target_tool, want, obs, 1, 2)
+    tool = layout.space("obj2", Property.POSITION).slice
+
+    def ways(at):
+        obs[tool] = at
+        pursued = planner._way_to_final_place(aff, b, delta, want, 0.2, goal, obs)
+        planner.pc, saved = replace(planner.pc, pursue_line=False), planner.pc
+        final = planner._way_to_final_place(aff, b, delta, want, 0.2, goal, obs)
+        planner.pc = saved
+        return pursued, final
+
+    # 6 cm off the line, 3 cm behind its place: a step straight back onto the line ahead.
+    at = behind + np.array([-0.03, 0.06])
+    pursued, final = ways(at)
+    assert np.isclose(np.linalg.norm(pursued), 0.08) and np.isclose(np.linalg.norm(final), 0.08)
+    aim = behind + [0.05, 0.0] - at  # 0.1 m: cut to the step
+    np.testing.assert_allclose(pursued, 0.08 * aim / np.linalg.norm(aim), atol=1e-9)
+    assert abs((at + pursued)[1]) < 0.015 and (at + final)[1] > 0.05  # 1.2 cm off, not 5.4
+    # On the line: the step along it, either way.
+    pursued, final = ways(behind - [0.05, 0.0])
+    np.testing.assert_allclose(pursued, [0.08, 0.0], atol=1e-9)
+    np.testing.assert_allclose(final, [0.08, 0.0], atol=1e-9)
+
+
+def _action_pusher(pose_places: bool) -> tuple[Planner, SimpleNamespace]:
+    """An affordance pushing the target by wheel commands, with the target-robot relation and
+    the robot's heading as contexts: in its rows the robot always faced the object and drove
+    forward into it, from every bearing."""
+    from hadim_cli.learner.navigation import ROBOT_HEADING
+    from hadim_cli.learner.spaces import ACTION
+
+    rng = np.random.default_rng(3)
+    n = 300
+    angles = rng.uniform(-np.pi, np.pi, n)
+    u = np.stack([np.cos(angles), np.sin(angles)], axis=1)
+    speed = rng.uniform(0.3, 1.0, n)[:, None]
+    model = LocalLinearModel(2, 2, [2, 2])  # wheels; contexts: relation, heading
+    model.add(np.repeat(speed, 2, axis=1), np.concatenate([0.27 * u, u], axis=1),
+              0.1 * speed * u)
+    aff = SimpleNamespace(id=3, input=ACTION, output=TARGET_POSITION, model=model,
+                          contexts=(TARGET_ROBOT, ROBOT_HEADING))
+    config = load_config(overrides=[f"planner.pose_places={str(pose_places).lower()}"])
+    return Planner(Hierarchy(), None, config.learner, config.planner), aff
+
+
+def test_an_action_pusher_is_placed_with_the_heading_its_pushes_were_made_facing():
+    """`pose_places`: the place a push by wheel commands is made from includes the robot's
+    heading (the data's, facing the push), not the one the robot has before the trip (it
+    turned back to that after driving there, and pushed sideways)."""
+    delta = np.array([0.06, 0.0])
+    current = np.array([-0.2, 0.4, 0.0, 1.0])  # far off, facing +y
+    planner, aff = _action_pusher(True)
+    free = np.array([True, False]) | planner._poses(aff)
+    needed = planner.needed_context(aff, delta, current, free)
+    assert abs(needed[0] - 0.27) < 0.05 and abs(needed[1]) < 0.05
+    assert needed[2] > 0.95
+    np.testing.assert_allclose(planner._needed_heading(aff, needed),
+                               needed[2:] / np.linalg.norm(needed[2:]))
+    off, aff_off = _action_pusher(False)
+    assert not off._poses(aff_off).any() and off._needed_heading(aff_off, needed) is None
+    kept = off.needed_context(aff_off, delta, current, np.array([True, False]))
+    np.testing.assert_array_equal(kept[2:], current[2:])
+
+
+def test_the_place_of_an_action_pusher_is_driven_to_facing_its_heading():
+    """The robot's place for such a pusher is one navigation target with the heading needed;
+    the heading is not then placed again once the robot faces it."""
+    from hadim_cli.learner.navigation import ROBOT_HEADING
+
+    planner, aff = _action_pusher(True)
+    places = []
+    obs_heading = np.array([0.0, 1.0])
+
+    def navigate(route, b, actuator, budget, near=-1):
+        places.extend(route)
+        obs_heading[:] = route[-1].heading  # arrives facing it
+        return 3
+
+    planner.navigate = navigate
+    planner._navigating = lambda: True
+    planner._spreads = lambda a: [0.3, 1.0]
+    planner.step_size = lambda a: 0.1
+    planner._waypoints = lambda driven, goal, obs, b, mover: [goal]
+    planner.value = lambda space, obs, b: (obs_heading.copy() if space == ROBOT_HEADING
+                                           else np.zeros(2))
+    planner.reader = SimpleNamespace(offset_now=lambda space, want, *a: want)
+    placed_headings = []
+    orig = planner._place
+
+    def place(aff_, b, i, driven, goal, *args):
+        if driven == ROBOT_HEADING:
+            placed_headings.append(goal)
+        return orig(aff_, b, i, driven, goal, *args)
+
+    planner._place = place
+    planner._drivers = lambda a, driven, sub_b, b: [aff]
+    world = SimpleNamespace(obs=np.zeros(4), exhausted=False)
+    needed = np.array([0.27, 0.0, 1.0, 0.0])
+    used = planner._reach_context(aff, Binding(target=1), needed, world, 40, 1)
+    assert used == 3 and len(places) == 1
+    np.testing.assert_allclose(places[0].heading, [1.0, 0.0])
+    assert placed_headings == []  # facing it already: no turn on the spot after the trip
