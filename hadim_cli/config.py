@@ -231,6 +231,15 @@ class LearnerConfig:
     """Competences the learning progress of a region is computed over."""
     interest_epsilon: float = 0.2
     """Probability of a uniform choice (of affordance, of region) instead of by interest."""
+    paper_interest: bool = False
+    """The interest maps as the paper has them (§4.4 and Algorithm 1's UpdateInterestMaps):
+    after every learning episode, goal babbling or random, each affordance's map records every
+    non-null outcome the episode reached in its output space, with the competence of the
+    forward model's estimate for the controllable executed (1 − min(1, error / the output's
+    range)); a region's interest is the mean of its last `interest_window` learning progresses
+    (`interest.paper_progress`). Off: a map records goal-babbling attempts only, with the
+    competence of the attempt, and a region's interest is the half-window difference
+    (docs/algorithm.md, "Interest maps", for what each measured)."""
     surface_relations: bool = True
     """Read relative positions (target-robot, target-tool, …) between the two bodies'
     surfaces, offset by `relation_offset`, instead of centre to centre (the paper's wording):

@@ -22,6 +22,7 @@ ROOT = Path(__file__).resolve().parents[1]
 STEPS = "tests/learner/test_algorithm_steps.py"
 TRIP = "tests/learner/test_state_round_trip.py"
 MIGRATIONS = "tests/store/test_store_migrations.py"
+PAPER = "tests/learner/test_paper_interest.py"
 
 
 class Bug(NamedTuple):
@@ -200,8 +201,30 @@ BUGS = (
         "select_index(interests, rng, 1.0)",
         f"{STEPS}::test_goal_babbling_picks_affordances_by_interest_and_records_the_attempt"),
     Bug("interest-not-updated", "hadim_cli/learner/explorer.py",
-        "        aff.interest.add(goal, attempt.competence, self.iteration)\n", "",
+        "            aff.interest.add(goal, attempt.competence, self.iteration)\n",
+        "            pass\n",
         f"{STEPS}::test_goal_babbling_picks_affordances_by_interest_and_records_the_attempt"),
+    Bug("paper-interest-not-configured", "hadim_cli/learner/affordance.py",
+        "measure = Progress.PAPER if cfg.paper_interest else Progress.HALF_WINDOW",
+        "measure = Progress.HALF_WINDOW",
+        f"{PAPER}::test_a_paper_map_records_each_outcome_reached_with_the_forward_models_error"),
+    Bug("paper-interest-not-updated", "hadim_cli/learner/explorer.py",
+        "                self.update_interest_maps(np.arange(start, stop, dtype=np.int64))\n",
+        "                pass\n",
+        f"{PAPER}::test_every_learning_episode_updates_the_paper_maps_before_adaptation"),
+    Bug("paper-interest-goal-attempts-too", "hadim_cli/learner/explorer.py",
+        "        if not self.config.paper_interest:", "        if True:",
+        f"{PAPER}::test_every_learning_episode_updates_the_paper_maps_before_adaptation"),
+    Bug("paper-interest-at-start", "hadim_cli/learner/affordance.py",
+        "return ((before + s.y)[order]", "return (before[order]",
+        f"{PAPER}::test_a_paper_map_records_each_outcome_reached_with_the_forward_models_error"),
+    Bug("paper-progress-unsigned", "hadim_cli/learner/interest.py",
+        "return float(abs(np.diff(competence)[-n:].mean()))",
+        "return float(np.abs(np.diff(competence)[-n:]).mean())",
+        "tests/learner/test_interest.py::test_paper_progress"),
+    Bug("paper-competence-not-last-k", "hadim_cli/learner/interest.py",
+        "begin = np.maximum(0, end - k)", "begin = np.zeros_like(end)",
+        "tests/learner/test_interest.py::test_paper_progress"),
     Bug("region-selection-uniform", "hadim_cli/learner/interest.py",
         "k = select_index(self._interests(), rng, 0.0)",
         "k = select_index(self._interests(), rng, 1.0)",

@@ -19,7 +19,7 @@ from hadim_cli.learner.classifier import VisualClassifier
 from hadim_cli.learner.competence import model_competence, range_scale, split_zero
 from hadim_cli.learner.dataset import Dataset
 from hadim_cli.learner.frames import FramedModel, relation_frame
-from hadim_cli.learner.interest import InterestMap
+from hadim_cli.learner.interest import InterestMap, Progress
 from hadim_cli.learner.models import LocalLinearModel, Model
 from hadim_cli.learner.spaces import ACTION, Role, RoleSpace, Rows, SpaceReader, space_dim
 from hadim_cli.world.layout import ROBOT, Property
@@ -245,6 +245,30 @@ class Fitter:
         ent = rows.target if entity is None else entity
         return self.reader.features(self.dataset.contexts, Rows(rows.t, ent, rows.tool))
 
+    def reached(self, aff: Affordance,
+                t: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """What iterations `t` reached in `aff`'s output space, for its interest map
+        (`LearnerConfig.paper_interest`): (absolute values reached, competences, iterations),
+        one per non-null outcome of a row in `aff`'s domain (`candidate_rows`: every binding
+        of its roles whose input changed), in time order. The competence is 1 − min(1, e),
+        e = ‖ω_e − ω_r‖ over the width of the output's range (as `competence` scales errors):
+        ω_e the forward model's estimate for the controllable executed in that context, ω_r
+        the outcome reached (paper §4.4)."""
+        sample = self.candidate_rows(aff.input, aff.output, t)
+        sample = sample.take(np.flatnonzero(self.nonzero(sample.y)))
+        dim = space_dim(aff.output, self.reader.layout)
+        if len(sample.rows) == 0 or aff.model.n == 0:
+            return np.zeros((0, dim)), np.zeros(0), np.zeros(0, dtype=np.int64)
+        s = self.values(aff.input, aff.output, aff.contexts, sample.rows)
+        estimate = aff.model.predict(s.x, s.c if s.c.shape[1] else None)
+        eps = self.config.zero_eps
+        scale = per_model(aff.model, ("range", eps), lambda y: range_scale(y, eps))
+        error = np.linalg.norm(estimate - s.y, axis=1) / scale
+        before = self.reader.read(aff.output, self.dataset.contexts, s.rows)
+        order = np.argsort(s.rows.t, kind="stable")
+        return ((before + s.y)[order], (1.0 - np.minimum(error, 1.0))[order],
+                s.rows.t[order])
+
     # ------------------------------------------------------------------ models
     def new_model(self, inp: RoleSpace, out: RoleSpace,
                   contexts: tuple[RoleSpace, ...]) -> Model:
@@ -292,8 +316,9 @@ class Fitter:
                        rng: np.random.Generator) -> Affordance:
         low, high = output_bounds(out, self.reader)
         cfg = self.config
+        measure = Progress.PAPER if cfg.paper_interest else Progress.HALF_WINDOW
         interest = InterestMap(low, high, max_goals_per_region=cfg.interest_max_goals,
-                               window=cfg.interest_window)
+                               window=cfg.interest_window, measure=measure)
         classifier = None
         if Role.TARGET in (inp.roles | out.roles):
             n_features = self.target_features(Rows.empty()).shape[1]

@@ -175,9 +175,10 @@ class Learner:
                 g    ← GoalSelection         (A's interest map; or a salient goal)
                 o    ← ObjectSelection       (the closest object p_A accepts)
                 Plan / Execute (A, o, g)     → competence
-                update A's interest map with (g, competence)
+                update A's interest map with (g, competence)       (not with paper_interest)
             otherwise:                                            random controllable
                 a random primitive sequence, or a random value of a controllable space
+            UpdateInterestMaps with the episode's outcomes        (with paper_interest)
             Adapt H to the episode's data    (Algorithm 2)
 
         Fallbacks are explicit and recorded (`LearningEpisode.fallbacks`): goal babbling with
@@ -194,6 +195,8 @@ class Learner:
         stop = self.iteration
         events: tuple[Event, ...] = ()
         if stop > start:
+            if self.config.paper_interest:
+                self.update_interest_maps(np.arange(start, stop, dtype=np.int64))
             events = tuple(self.adaptation.run(start, stop, stop, self.learning_episodes, rng))
         self.learning_episodes += 1
         return LearningEpisode(done.mode, start, stop, done.affordance_id,
@@ -220,8 +223,18 @@ class Learner:
         attempt = self.planner.reach(aff, binding, goal, actuator, self.config.goal_budget)
         if attempt.actions == 0:
             return self._random_controllable(actuator, rng).after(Fallback.GOAL_NO_PLAN)
-        aff.interest.add(goal, attempt.competence, self.iteration)
+        if not self.config.paper_interest:  # (the paper's maps learn from every outcome)
+            aff.interest.add(goal, attempt.competence, self.iteration)
         return Explored(Mode.GOAL, aff.id, goal, attempt.competence)
+
+    def update_interest_maps(self, t: np.ndarray) -> None:
+        """UpdateInterestMaps(D, D_episodic) of the paper's Algorithm 1 (`paper_interest`):
+        every map records the outcomes the learning episode (iterations `t`) reached in its
+        affordance's output space, with the competence of the forward model that planned them
+        (`Fitter.reached`); run before Algorithm 2, as the paper orders them."""
+        for aff in self.hierarchy:
+            for value, competence, it in zip(*self.fitter.reached(aff, t), strict=True):
+                aff.interest.add(value, float(competence), int(it))
 
     def _random_controllable(self, actuator: Actuator, rng: np.random.Generator) -> Explored:
         spaces: list[RoleSpace] = [ACTION, *sorted(self.hierarchy.controllable())]

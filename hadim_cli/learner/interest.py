@@ -1,11 +1,14 @@
 """SAGG-RIAC interest maps: a region tree over one affordance's goal (output) space.
 
 Each leaf of the tree keeps the goals attempted in it, in time order, with the competence
-reached. Its *interest* is its learning progress: the absolute difference between the mean
-competence of the newer and of the older half of its last `window` attempts (Baranes &
-Oudeyer 2009/2013). A leaf holding more than `max_goals_per_region` goals splits at the cut
-that best separates learning progress. Goals are drawn by choosing a leaf in proportion to its
-interest, then uniformly inside it, with some uniform exploration of the whole box.
+reached. Its *interest* is its learning progress, by one of two measures (`Progress`): the
+absolute difference between the mean competence of the newer and of the older half of its last
+`window` attempts (explauto's, the default), or the paper's (§4.4): the competence near a goal
+is the mean over the k last outcomes of the region, the learning progress its derivative, and
+the interest the mean of the n last learning progresses. A leaf holding more than
+`max_goals_per_region` goals splits at the cut that best separates learning progress. Goals
+are drawn by choosing a leaf in proportion to its interest, then uniformly inside it, with
+some uniform exploration of the whole box.
 
 The maths (learning progress, split quality, best cut, proportional choice) are pure
 functions; `InterestMap` only holds state.
@@ -13,6 +16,7 @@ functions; `InterestMap` only holds state.
 
 from __future__ import annotations
 
+import enum
 from collections.abc import Sequence
 from dataclasses import dataclass, field
 from typing import Any, NamedTuple
@@ -23,6 +27,16 @@ FORMAT = 1
 """Version of the `InterestMap.state()` layout."""
 
 _NO_NODE = -1
+
+
+class Progress(enum.StrEnum):
+    """How a region's learning progress (its interest) is measured."""
+
+    HALF_WINDOW = "half-window"
+    """|mean(newer half) − mean(older half)| of the last `window` competences."""
+    PAPER = "paper"
+    """The paper's (§4.4): |mean of the last `window` derivatives of the competence|, the
+    competence being the mean of the last `window` values (`paper_progress`)."""
 
 
 # ---------------------------------------------------------------------------- pure maths
@@ -40,6 +54,35 @@ def learning_progress(competences: Sequence[float] | np.ndarray, window: int) ->
     return float(abs(c[half:].mean() - c[:half].mean()))
 
 
+def paper_progress(competences: Sequence[float] | np.ndarray, k: int, n: int) -> float:
+    """The paper's interest of a region (§4.4): |mean of the last `n` learning progresses|.
+
+    The competence after each outcome is the mean of the region's last `k` values (all of them
+    while fewer); a learning progress is its change from one outcome to the next (the
+    derivative); the interest is the mean of the last `n` of them. The mean is signed before
+    its absolute value is taken (SAGG-RIAC counts a loss of competence as a progress): the
+    changes of a competence that only jitters cancel out. 0 with fewer than 2 values.
+    """
+    if k < 1 or n < 1:
+        return 0.0
+    v = np.asarray(competences, dtype=np.float64)[-(n + k):]  # the last n + 1 means need these
+    if v.size < 2:
+        return 0.0
+    sums = np.concatenate([[0.0], np.cumsum(v)])
+    end = np.arange(1, v.size + 1)
+    begin = np.maximum(0, end - k)
+    competence = (sums[end] - sums[begin]) / (end - begin)
+    return float(abs(np.diff(competence)[-n:].mean()))
+
+
+def progress(competences: Sequence[float] | np.ndarray, window: int,
+             measure: Progress = Progress.HALF_WINDOW) -> float:
+    """The learning progress of a region's competences (in time order) by `measure`."""
+    if measure is Progress.PAPER:
+        return paper_progress(competences, window, window)
+    return learning_progress(competences, window)
+
+
 def balance(n_left: int, n_right: int) -> float:
     """4·n_l·n_r / n²: 1 for an even split, towards 0 as one side gets tiny."""
     n = n_left + n_right
@@ -47,14 +90,14 @@ def balance(n_left: int, n_right: int) -> float:
 
 
 def split_quality(left: Sequence[float] | np.ndarray, right: Sequence[float] | np.ndarray,
-                  window: int) -> float:
+                  window: int, measure: Progress = Progress.HALF_WINDOW) -> float:
     """|LP_left − LP_right| × balance: how well a cut separates learning progress.
 
     `left` and `right` are the competences of the two children, each in time order.
     """
     if len(left) == 0 or len(right) == 0:
         return 0.0
-    gap = abs(learning_progress(left, window) - learning_progress(right, window))
+    gap = abs(progress(left, window, measure) - progress(right, window, measure))
     return gap * balance(len(left), len(right))
 
 
@@ -81,7 +124,8 @@ class Cut(NamedTuple):
 
 
 def best_cut(goals: np.ndarray, competences: np.ndarray, low: np.ndarray, high: np.ndarray,
-             *, window: int, n_candidates: int, min_width: np.ndarray) -> Cut | None:
+             *, window: int, n_candidates: int, min_width: np.ndarray,
+             measure: Progress = Progress.HALF_WINDOW) -> Cut | None:
     """The cut maximising `split_quality`, or None if no admissible cut exists.
 
     Ties (e.g. no learning progress anywhere) go to the more balanced cut, then to the
@@ -95,7 +139,7 @@ def best_cut(goals: np.ndarray, competences: np.ndarray, low: np.ndarray, high: 
                                     float(min_width[dim])):
             left = values < value
             n_left = int(left.sum())
-            quality = split_quality(competences[left], competences[~left], window)
+            quality = split_quality(competences[left], competences[~left], window, measure)
             key = (quality, balance(n_left, len(values) - n_left),
                    float((high[dim] - low[dim]) / min_width[dim]))
             if best_key is None or key > best_key:
@@ -168,7 +212,8 @@ class InterestMap:
 
     def __init__(self, low: Sequence[float], high: Sequence[float], *,
                  max_goals_per_region: int = 50, window: int = 20, n_cut_candidates: int = 8,
-                 min_region_fraction: float = 1 / 32, unexplored_interest: float = 0.02):
+                 min_region_fraction: float = 1 / 32, unexplored_interest: float = 0.02,
+                 measure: Progress | str = Progress.HALF_WINDOW):
         lo = np.array(low, dtype=np.float64).reshape(-1)
         hi = np.array(high, dtype=np.float64).reshape(-1)
         if lo.size == 0 or lo.shape != hi.shape:
@@ -190,6 +235,7 @@ class InterestMap:
         self.n_cut_candidates = int(n_cut_candidates)
         self.min_region_fraction = float(min_region_fraction)
         self.unexplored_interest = float(unexplored_interest)
+        self.measure = Progress(measure)
         self._min_width = (hi - lo) * self.min_region_fraction
         # Region tree, indexed by region id.
         self._low: list[np.ndarray] = [lo.copy()]
@@ -262,14 +308,15 @@ class InterestMap:
         if len(leaf.competences) < 2:
             leaf.interest = self.unexplored_interest
         else:
-            leaf.interest = learning_progress(leaf.competences[-self.window:], self.window)
+            leaf.interest = progress(leaf.competences, self.window, self.measure)
 
     def _try_split(self, node: int) -> None:
         leaf = self._leaves[node]
         goals = np.stack(leaf.goals)
         comps = np.asarray(leaf.competences, dtype=np.float64)
         cut = best_cut(goals, comps, self._low[node], self._high[node], window=self.window,
-                       n_candidates=self.n_cut_candidates, min_width=self._min_width)
+                       n_candidates=self.n_cut_candidates, min_width=self._min_width,
+                       measure=self.measure)
         if cut is None:
             # Nothing admissible (goals piled up, region at minimum size): retry much later.
             leaf.next_split_at = len(leaf.goals) + self.max_goals_per_region
@@ -338,7 +385,8 @@ class InterestMap:
                 "max_goals_per_region": self.max_goals_per_region, "window": self.window,
                 "n_cut_candidates": self.n_cut_candidates,
                 "min_region_fraction": self.min_region_fraction,
-                "unexplored_interest": self.unexplored_interest}
+                "unexplored_interest": self.unexplored_interest,
+                "measure": self.measure.value}
 
     def state(self) -> tuple[dict[str, Any], dict[str, np.ndarray]]:
         """(JSON-serialisable parameters, arrays) from which `from_state` rebuilds the map."""

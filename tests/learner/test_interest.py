@@ -9,10 +9,12 @@ import pytest
 
 from hadim_cli.learner.interest import (
     InterestMap,
+    Progress,
     RegionView,
     balance,
     best_cut,
     learning_progress,
+    paper_progress,
     select_index,
     split_quality,
 )
@@ -36,6 +38,58 @@ from hadim_cli.learner.interest import (
 )
 def test_learning_progress(values: list[float], window: int, expected: float) -> None:
     assert learning_progress(values, window) == pytest.approx(expected)
+
+
+@pytest.mark.parametrize(
+    ("values", "k", "n", "expected"),
+    [
+        ([], 2, 2, 0.0),
+        ([0.7], 2, 2, 0.0),
+        ([0.2, 0.6], 20, 20, 0.2),  # competences 0.2, then 0.4: one progress of 0.2
+        ([0.0, 0.0, 1.0, 1.0], 2, 2, 0.5),  # competences 0, 0, .5, 1: progresses .5, .5
+        ([0.0, 0.0, 0.0, 1.0, 1.0, 1.0], 2, 3, 1 / 3),  # progresses 0, .5, .5, 0 → last 3
+        ([1.0, 1.0, 1.0, 0.0, 0.0, 0.0], 2, 3, 1 / 3),  # a loss counts as a progress
+        ([1.0, 0.0, 1.0, 0.0, 1.0, 0.0], 3, 2, 0.0),  # a jitter: progresses cancel out
+        ([0.5] * 30, 5, 5, 0.0),
+        ([0.0] * 20 + [1.0] * 4, 4, 2, 0.25),  # only the last n progresses, k deep
+    ],
+)
+def test_paper_progress(values: list[float], k: int, n: int, expected: float) -> None:
+    """The paper's interest (§4.4): the mean of the last n derivatives of the competence, the
+    competence being the mean of the last k values."""
+    assert paper_progress(values, k, n) == pytest.approx(expected)
+
+
+def test_paper_progress_is_a_scaled_half_window_difference_when_full() -> None:
+    """With k = n and 2n values, the mean of the n last progresses telescopes: it is the
+    difference between the means of the newer and the older n values, over n — a measure
+    unlike the half-window difference (`learning_progress`) of the same values."""
+    values = np.random.default_rng(3).random(40)
+    expected = abs(values[20:].mean() - values[:20].mean()) / 20
+    assert paper_progress(values, 20, 20) == pytest.approx(expected)
+    assert paper_progress(np.concatenate([[9.0] * 5, values]), 20, 20) == \
+        pytest.approx(expected)  # older values do not count
+    assert learning_progress(values, 20) != pytest.approx(expected)
+
+
+def test_a_paper_map_measures_interest_and_splits_by_the_papers_progress() -> None:
+    """A map built with `Progress.PAPER` uses `paper_progress` for its leaves' interest and
+    for the quality of its cuts, and keeps the measure through its state."""
+    m = InterestMap([0.0], [1.0], max_goals_per_region=40, window=4,
+                    measure=Progress.PAPER)
+    comps = [0.0] * 6 + [1.0] * 3
+    for i, c in enumerate(comps):
+        m.add([0.5], c, i)
+    assert m.interest == pytest.approx(paper_progress(comps, 4, 4))
+    assert m.interest != pytest.approx(learning_progress(comps, 4))
+    left, right = [0.0] * 4 + [1.0] * 4, [0.5] * 8  # progresses .25 and 0 (half-window: 0, 0)
+    assert split_quality(left, right, 4, Progress.PAPER) == pytest.approx(0.25)
+    assert split_quality(left, right, 4) == 0.0
+    meta, arrays = m.state()
+    copy = InterestMap.from_state(json.loads(json.dumps(meta)), arrays)
+    assert copy.measure is Progress.PAPER and copy.interest == m.interest
+    old = {k: v for k, v in meta.items() if k != "measure"}  # a map stored before the option
+    assert InterestMap.from_state(old, arrays).measure is Progress.HALF_WINDOW
 
 
 def test_balance_and_split_quality() -> None:
