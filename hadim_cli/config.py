@@ -388,6 +388,11 @@ class PlannerConfig:
     fresh inverse answer and steering each step. Its direction then stays put between steps,
     and every change of it would cost its pusher a trip round it. Off: the inverse answer
     and `steer` as for any input."""
+    finish_trips: bool = False
+    """A level whose last action served a trip to its needed context goes on with the trip
+    until it is within `place_support` of that context, instead of deciding afresh (and
+    pushing or steering as soon as the relation is back within `realign`). Off: every action
+    decides anew whether to re-place (docs/algorithm.md: fewer trips, not yet a better score)."""
     pose_places: bool = True
     """An affordance acting from the robot's actions with the robot's heading as a context
     besides a relation (`action → target.position | target-robot, robot.heading`): the place it

@@ -76,6 +76,8 @@ def check_sqlite_file(path: Path, *, create: bool) -> None:
         with readonly.connect() as conn:
             version = schema.read_state(conn, str(path)).version
     except DBAPIError as exc:
+        if getattr(exc.orig, "sqlite_errorcode", None) == sqlite3.SQLITE_CORRUPT:
+            raise _damaged(path, str(exc.orig)) from exc  # a store's pages, not a foreign file
         raise SchemaError(f"{path} is a corrupt or unreadable SQLite database: {exc.orig}") from exc
     finally:
         readonly.dispose()
@@ -116,9 +118,13 @@ def require_intact(path: Path) -> None:
     if problems:
         # SQLite's report may span lines ("*** in database main ***\nOn tree page …"): one line.
         first = " ".join(problems[0].split())
-        raise DamagedStore(f"{path} is damaged ({first}{' …' if len(problems) > 1 else ''}); "
-                           f"nothing was written: run `hadim store check --store {path}` and see "
-                           f"docs/store.md, 'A damaged store'")
+        raise _damaged(path, f"{first}{' …' if len(problems) > 1 else ''}")
+
+
+def _damaged(path: Path, finding: str) -> DamagedStore:
+    """The refusal of a store SQLite finds damaged (its `finding`), before anything is written."""
+    return DamagedStore(f"{path} is damaged ({finding}); nothing was written: run `hadim store "
+                        f"check --store {path}` and see docs/store.md, 'A damaged store'")
 
 
 def make_engine(url: URL) -> Engine:

@@ -10,6 +10,7 @@ import typer
 
 from hadim_cli.commands.common import StoreOption
 from hadim_cli.errors import HadimError
+from store.errors import DamagedStore
 
 app = typer.Typer(help="Check a store file; upgrade a store's schema.", no_args_is_help=True)
 
@@ -28,13 +29,20 @@ def check(store: StoreOption = None) -> None:
     path = Path(where)
     if not path.is_file():
         raise HadimError(f"no store at {where}")
-    engine.check_sqlite_file(path, create=False)
+    try:
+        engine.check_sqlite_file(path, create=False)
+    except DamagedStore:  # damaged where the schema is read: say what SQLite finds, as below
+        opened = False
+    else:
+        opened = True
     problems = engine.quick_check(path, full=True)
     typer.echo(f"{where}: " + ("integrity_check ok" if not problems else
                                f"integrity_check found {len(problems)} problem(s):"))
     for line in problems:
         typer.echo(f"  {line}")
-    unreadable = _check_runs(where)
+    unreadable = _check_runs(where) if opened else 1
+    if not opened:
+        typer.echo("  runs not read: the store's schema cannot be read")
     if problems or unreadable:
         typer.echo("damaged: copy out what can be read (docs/store.md, 'A damaged store'); "
                    "hadim refuses to write into this file")

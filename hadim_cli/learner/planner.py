@@ -125,6 +125,10 @@ class Planner:
         counted once, when it starts after an action that was not a placement."""
         self._placing = False
         """Whether the last primitive action served a placement (a trip under way)."""
+        self._places: list[int] = []
+        """Affordances whose context is being placed now (innermost last)."""
+        self._placed_for: frozenset[int] = frozenset()
+        """Affordances whose placement the last primitive action served (`finish_trips`)."""
         self.pusher: Pusher | None = None
         """An exact stand-in for the robot pushing an object where a level above asks
         (`evaluation.exact`, evaluation only); None: the learned affordances push."""
@@ -160,6 +164,7 @@ class Planner:
             self.navigator.forget()
             self.trips = 0
             self._placing = False
+            self._placed_for = frozenset()
         self.stack.append(Pursuit(f"A{aff.id} {aff.output.name}", goal, b))
         try:
             used = self._reach_loop(aff, b, goal, start, actuator, budget, depth)
@@ -229,15 +234,19 @@ class Planner:
             way = self._way_to_final_place(aff, b, delta, needed, off, goal, obs)
             if way is not None:
                 return self.execute(aff.input, way, b, actuator, budget, depth, exclude=aff.id)
-            if off > self.pc.place_support and self._worth_replacing(
-                    aff, b, needed, delta, obs, progress if supported else 0.0, off, remaining):
+            # A trip under way goes on until it arrives: replanning every action, a trip
+            # given up as soon as the relation was back within `realign` left the robot
+            # going to and fro across that threshold (a trip, a push, a trip again).
+            going_on = self.pc.finish_trips and aff.id in self._placed_for
+            if off > self.pc.place_support and (going_on or self._worth_replacing(
+                    aff, b, needed, delta, obs, progress if supported else 0.0, off, remaining)):
                 if spare_trips and (np.linalg.norm(delta)
                                     < self.pc.small_correction * self.step_size(aff)):
                     # The robot circled a tool for 3 cm; a target pushed 3 cm past its goal
                     # was chased round the tool for 50 actions, and touched.
                     return -1
                 then = aff.model.infer(delta, needed).x
-                if self.pc.steer and off <= self.pc.realign:
+                if self.pc.steer and off <= self.pc.realign and not going_on:
                     done = self._steer(aff, b, delta, c, needed, then, relations, spreads,
                                        actuator, budget, depth)
                     if done > 0:
@@ -663,6 +672,7 @@ class Planner:
         """One primitive action, remembering whether it served a placement (`trips`)."""
         actuator.act(action)
         self._placing = any(p.label.startswith("place ") for p in self.stack)
+        self._placed_for = frozenset(self._places)
 
     def heading_for(self, move: np.ndarray, obs: np.ndarray, b: Binding) -> np.ndarray | None:
         """The heading from which the robot's learned motion produces the displacement `move`
@@ -726,11 +736,13 @@ class Planner:
                     and line_angle(current, goal) <= self.pc.heading_tolerance):
                 continue  # the robot arrived at its place facing the heading needed
             self.stack.append(Pursuit(f"place {space.name} for A{aff.id}", goal, b))
+            self._places.append(aff.id)
             try:
                 done = self._place(aff, b, i, driven, goal, sub_b, controllers[0], spreads,
                                    actuator, budget - used, depth, then, heading)
             finally:
                 self.stack.pop()
+                self._places.pop()
             if done < 0:
                 return used if used > 0 else -1
             used += done

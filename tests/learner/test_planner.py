@@ -646,3 +646,55 @@ def test_the_place_of_an_action_pusher_is_driven_to_facing_its_heading():
     assert used == 3 and len(places) == 1
     np.testing.assert_allclose(places[0].heading, [1.0, 0.0])
     assert placed_headings == []  # facing it already: no turn on the spot after the trip
+
+
+def test_a_trip_under_way_goes_on_until_it_arrives():
+    """`finish_trips`: a level whose last action served the trip to its needed context keeps
+    going there while the relation is off by more than `place_support`, even back within
+    `realign` with a push predicted to work; deciding afresh, the same level pushes on (the
+    robot went to and fro across `realign`: a trip, a push, a trip again)."""
+    from dataclasses import replace
+
+    planner = _planner()
+    planner.pc = replace(planner.pc, finish_trips=True)
+    aff = SimpleNamespace(id=3, model=SimpleNamespace(n=100, context_dims=[2]),
+                          contexts=(TARGET_ROBOT,), input=ROBOT_POSITION, output=TARGET_POSITION)
+    answer = SimpleNamespace(x=np.array([0.05, 0.0]), y_predicted=np.array([0.05, 0.0]))
+    aff.model.infer = lambda delta, c=None: answer
+    planner.context = lambda *args: np.array([-0.3, 0.03])
+    planner.reachable_relations = lambda a: np.array([True])
+    planner._spreads = lambda a: [0.1]
+    planner.support_gap = lambda *args: 0.0  # the push from here is supported ...
+    planner.needed_context = lambda *args: np.array([-0.3, 0.0])  # ... 0.3 spreads off
+    planner.step_size = lambda a: 0.1
+    done = []
+    planner._reach_context = lambda *args, **kw: done.append("trip") or 2
+    planner._steer = lambda *args, **kw: done.append("steer") or 1
+    planner.execute = lambda *args, **kw: done.append("push") or 1
+    actuator = SimpleNamespace(obs=np.zeros(4))
+    delta = np.array([0.05, 0.0])
+    assert planner._one_step(aff, Binding(target=1), delta, actuator, 80, 1) == 1
+    assert done == ["push"]
+    planner._placed_for = frozenset({3})  # the last action was this level's trip
+    assert planner._one_step(aff, Binding(target=1), delta, actuator, 80, 1) == 2
+    assert done == ["push", "trip"]
+    planner._placed_for = frozenset({5})  # another level's trip: no matter here
+    planner._one_step(aff, Binding(target=1), delta, actuator, 80, 1)
+    assert done[-1] == "push"
+    planner.pc = replace(planner.pc, finish_trips=False)
+    planner._placed_for = frozenset({3})
+    planner._one_step(aff, Binding(target=1), delta, actuator, 80, 1)
+    assert done[-1] == "push"
+
+
+def test_the_actions_of_a_trip_say_whose_trip_it_is():
+    """What `finish_trips` reads: after an action taken while placing the context of an
+    affordance, `_placed_for` names that affordance; after a plain push, none."""
+    planner = _planner()
+    world = SimpleNamespace(act=lambda action: None)
+    planner._places.append(4)
+    planner._act(world, np.zeros(2))
+    assert planner._placed_for == frozenset({4})
+    planner._places.pop()
+    planner._act(world, np.zeros(2))
+    assert planner._placed_for == frozenset()

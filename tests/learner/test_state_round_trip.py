@@ -58,6 +58,9 @@ def assert_same(a: Any, b: Any, path: str = "learner", seen: set | None = None) 
         assert a.keys() == b.keys(), f"{path}: keys {sorted(map(str, a))} vs " \
                                      f"{sorted(map(str, b))}"
         return sum(assert_same(a[k], b[k], f"{path}[{k!r}]", seen) for k in a)
+    if isinstance(a, set | frozenset):  # of plain values (e.g. affordance ids)
+        assert a == b, f"{path}: {sorted(a)} vs {sorted(b)}"
+        return 1
     if isinstance(a, list | tuple):
         assert len(a) == len(b), f"{path}: length {len(a)} vs {len(b)}"
         return sum(assert_same(x, y, f"{path}[{i}]", seen)
