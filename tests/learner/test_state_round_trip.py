@@ -51,16 +51,13 @@ def assert_same(a: Any, b: Any, path: str = "learner", seen: set | None = None) 
     if isinstance(a, float):
         assert a == b or (np.isnan(a) and np.isnan(b)), f"{path}: {a} vs {b}"
         return 1
-    if isinstance(a, str | int | bool | type(None) | enum.Enum):
+    if isinstance(a, str | int | bool | type(None) | enum.Enum | frozenset):  # sets of ids
         assert a == b, f"{path}: {a!r} vs {b!r}"
         return 1
     if isinstance(a, dict):
         assert a.keys() == b.keys(), f"{path}: keys {sorted(map(str, a))} vs " \
                                      f"{sorted(map(str, b))}"
         return sum(assert_same(a[k], b[k], f"{path}[{k!r}]", seen) for k in a)
-    if isinstance(a, set | frozenset):  # of plain values (e.g. affordance ids)
-        assert a == b, f"{path}: {sorted(a)} vs {sorted(b)}"
-        return 1
     if isinstance(a, list | tuple):
         assert len(a) == len(b), f"{path}: length {len(a)} vs {len(b)}"
         return sum(assert_same(x, y, f"{path}[{i}]", seen)
