@@ -276,6 +276,20 @@ class LearnerConfig:
     more than `match_tolerance`) even when no context change makes them fit. Off (the paper's
     Algorithm 2): such rows are given back and the affordance refitted without them
     (docs/algorithm.md, departures)."""
+    paper_picks: bool = False
+    """Algorithm 2's PickSpace as the paper writes it (issue 16, item 3): a space is picked k
+    times at random among those with a non-null outcome in the learning episode, k = their
+    number, with replacement — some are adapted twice (the second pick adds nothing: their
+    affordances hold the episode's rows already) and some not at all. Off: each non-null
+    space once, in random order (docs/algorithm.md, departures, for what each measured)."""
+    paper_matching: bool = False
+    """Algorithm 2's Matches as the paper writes it (issue 16, item 3): a picked space S's data
+    are matched against *every* affordance of H, not only those with output S. An affordance
+    of another output of the same property (a position for a position) matches when its
+    model, given the episode's rows with S's outcome in place of its own, keeps its held-out
+    competence within `match_tolerance` (`Adaptation.matches_other_output`); such a match
+    explains S, and no new affordance is tried for S at that pick (the paper creates one only
+    when nothing matched). Off: only the affordances with output S are matched."""
     p_a_pooled: bool = False
     """Teach p_A of every affordance with the same output (`target.position`: every
     object-moving affordance) the same examples: the objects any of them moved (positives),

@@ -23,6 +23,7 @@ STEPS = "tests/learner/test_algorithm_steps.py"
 TRIP = "tests/learner/test_state_round_trip.py"
 MIGRATIONS = "tests/store/test_store_migrations.py"
 PAPER = "tests/learner/test_paper_interest.py"
+ALG2 = "tests/learner/test_paper_adaptation.py"
 
 
 class Bug(NamedTuple):
@@ -270,6 +271,28 @@ BUGS = (
         "        if not self.config.absorb_mismatch \\\n",
         "        if False \\\n",
         f"{STEPS}::test_rows_that_no_context_makes_fit_are_given_back_without_absorb_mismatch"),
+    Bug("paper-picks-each-once", "hadim_cli/learner/adaptation.py",
+        "        if self.config.paper_picks:\n            drawn = rng.integers(",
+        "        if False:\n            drawn = rng.integers(",
+        f"{ALG2}::test_paper_picks_draw_k_spaces_with_replacement_and_the_default_each_once"),
+    Bug("paper-picks-adapted-twice", "hadim_cli/learner/adaptation.py",
+        "                continue  # (paper picks) drawn again", "                pass  #",
+        f"{ALG2}::test_a_space_picked_twice_is_adapted_once"),
+    Bug("paper-match-same-output-only", "hadim_cli/learner/adaptation.py",
+        "if self.config.paper_matching and self._explained_elsewhere(space, t, rng):",
+        "if False:",
+        f"{ALG2}::test_a_match_with_another_output_stands_for_creation"),
+    Bug("paper-match-any-property", "hadim_cli/learner/adaptation.py",
+        "if out.prop is not space.prop or out.relative_to != space.relative_to \\\n",
+        "if False \\\n",
+        f"{ALG2}::test_data_of_another_output_match_an_affordance_that_explains_them"),
+    Bug("paper-match-parked-objects", "hadim_cli/learner/adaptation.py",
+        "keep &= np.isin(sample.rows.target, seen.target[changed])", "keep &= True",
+        f"{ALG2}::test_only_objects_that_moved_are_the_picked_space"),
+    Bug("paper-match-always", "hadim_cli/learner/adaptation.py",
+        "return f.competence(model, rng) >= aff.competence - self.config.match_tolerance",
+        "return True",
+        f"{ALG2}::test_data_of_another_output_match_an_affordance_that_explains_them"),
     Bug("learning-episodes-not-restored", "hadim_cli/learner/state.py",
         "    learner.learning_episodes = int(meta[\"learning_episodes\"])\n", "", TRIP),
     Bug("low-streak-not-restored", "hadim_cli/learner/state.py",

@@ -9,6 +9,11 @@ candidate input (A ∪ Ω_controllable) not yet used for it, with no context or 
 context (kept only if it gains `context_gain` over none); the best reaching τ_creation joins H.
 p_A of each affordance is trained on the objects that responded (positives) and those it was
 applied to that did not (negatives).
+
+Two switches give the paper's loop (off by default, docs/algorithm.md for what they measured):
+`paper_picks` picks a space k times with replacement instead of each once; `paper_matching`
+also matches the picked space's data against the affordances of other outputs, and a match
+there stands for creation (`matches_other_output`).
 """
 
 from __future__ import annotations
@@ -21,6 +26,7 @@ from hadim_cli.config import LearnerConfig
 from hadim_cli.learner.affordance import Affordance, Fitter, Sample, typical_step
 from hadim_cli.learner.hierarchy import Event, EventKind, Hierarchy
 from hadim_cli.learner.spaces import (
+    ACTION,
     OPEN_OUTPUT_SPACES,
     OUTPUT_SPACES,
     Role,
@@ -74,18 +80,36 @@ class Adaptation:
         outputs = OPEN_OUTPUT_SPACES if self.config.open_outputs else OUTPUT_SPACES
         return [space for space in outputs if self.fitter.changed(space, t)[1].any()]
 
+    def pick_spaces(self, spaces: list[RoleSpace],
+                    rng: np.random.Generator) -> list[RoleSpace]:
+        """The spaces Algorithm 2 adapts H to, in order. With `paper_picks`, PickSpace k
+        times (k = len(spaces), with replacement: the same number of picks, drawn as the
+        paper draws them); otherwise each space once, in random order."""
+        if not spaces:
+            return []
+        if self.config.paper_picks:
+            drawn = rng.integers(len(spaces), size=len(spaces))
+        else:
+            drawn = rng.permutation(len(spaces))
+        return [spaces[int(i)] for i in drawn]
+
     def run(self, t0: int, t1: int, iteration: int, episode: int,
             rng: np.random.Generator) -> list[Event]:
         """Adapt H to the learning episode made of iterations [t0, t1)."""
         start = len(self.h.events)
         t = np.arange(t0, t1, dtype=np.int64)
         spaces = self.non_null_spaces(t)
-        for i in rng.permutation(len(spaces)):
-            space = spaces[int(i)]
+        adapted: set[RoleSpace] = set()
+        for space in self.pick_spaces(spaces, rng):
+            if space in adapted:
+                continue  # (paper picks) drawn again: its data are in its affordances already
+            adapted.add(space)
             if self.config.p_a_pooled:
                 self._teach_pooled(self.h.with_output(space), t, rng)
             for aff in self.h.with_output(space):
                 self._update(aff, t, iteration, rng)
+            if self.config.paper_matching and self._explained_elsewhere(space, t, rng):
+                continue  # the paper creates an affordance only when none matched
             self._try_create(space, iteration, episode, rng)
         if self.config.p_a_blocked_pushes:
             # Driving into a fixed object moves nothing: no space is non-null, no affordance is
@@ -103,6 +127,46 @@ class Adaptation:
             self._train_classifier(aff, none, rng, blocked)
 
     # ------------------------------------------------------------------ existing affordances
+    def _explained_elsewhere(self, space: RoleSpace, t: np.ndarray,
+                             rng: np.random.Generator) -> bool:
+        """With `paper_matching`: whether the data of `space` at iterations `t` match an
+        affordance of another output (`matches_other_output`), in H's order, first match."""
+        return any(self.matches_other_output(aff, space, t, rng)
+                   for aff in self.h if aff.output != space)
+
+    def matches_other_output(self, aff: Affordance, space: RoleSpace, t: np.ndarray,
+                             rng: np.random.Generator) -> bool:
+        """The paper's Matches(A, a, ω_S) for an affordance whose output is not S: A's model,
+        given the rows of iterations `t` in its domain (its input changed; every row for the
+        action input) with S's outcome in place of its own — for S an object's position, the
+        rows of the objects that moved in `t` (the paper's spaces are an object's; one that
+        never moved is no picked space) — all non-null ones and a bounded share of null ones
+        (`Fitter.select_rows`), keeps its held-out competence within
+        `match_tolerance`. Only an output of the same property can (a position for a
+        position): another kind of quantity is not A's to predict. The data are not added
+        to A (its rows are rows of its own output) and no context is searched for them."""
+        f = self.fitter
+        out = aff.output
+        if out.prop is not space.prop or out.relative_to != space.relative_to \
+                or aff.model.n < 3:
+            return False
+        sample = f.values(aff.input, space, aff.contexts, f.bindings(aff.roles | space.roles, t))
+        keep = np.ones(len(sample.rows), dtype=bool)
+        if aff.input is not ACTION:
+            keep &= f.nonzero(sample.x)
+        if space.role is Role.TARGET:
+            # S is one object's space in the paper: objects that never moved are not picked.
+            seen, changed = f.changed(space, t)
+            keep &= np.isin(sample.rows.target, seen.target[changed])
+        sample = sample.take(np.flatnonzero(keep))
+        if not f.nonzero(sample.y).any():
+            return False
+        s = f.values(aff.input, space, aff.contexts, f.select_rows(sample, rng))
+        model = f.new_model(aff.input, out, aff.contexts)
+        model.add(*aff.model.data())
+        model.add(s.x, s.c, s.y)
+        return f.competence(model, rng) >= aff.competence - self.config.match_tolerance
+
     def _accept_mask(self, aff: Affordance, sample: Sample) -> np.ndarray | None:
         if aff.classifier is None or aff.classifier.n_positive == 0:
             return None
