@@ -406,7 +406,7 @@ class PlannerConfig:
     """A level whose last action served a trip to its needed context goes on with the trip
     until it is within `place_support` of that context, instead of deciding afresh (and
     pushing or steering as soon as the relation is back within `realign`). Off: every action
-    decides anew whether to re-place (docs/algorithm.md: fewer trips, not yet a better score)."""
+    decides anew whether to re-place (docs/algorithm.md: fewer trips, a lower score retrained)."""
     pose_places: bool = True
     """An affordance acting from the robot's actions with the robot's heading as a context
     besides a relation (`action → target.position | target-robot, robot.heading`): the place it
