@@ -277,15 +277,15 @@ class LearnerConfig:
     Algorithm 2): such rows are given back and the affordance refitted without them
     (docs/algorithm.md, departures)."""
     paper_picks: bool = False
-    """Algorithm 2's PickSpace as the paper writes it (issue 16, item 3): a space is picked k
-    times at random among those with a non-null outcome in the learning episode, k = their
-    number, with replacement — some are adapted twice (the second pick adds nothing: their
-    affordances hold the episode's rows already) and some not at all. Off: each non-null
+    """Algorithm 2's PickSpace as the paper writes it: a space is picked k times at random
+    among those with a non-null outcome in the learning episode, k = their number, with
+    replacement — some are adapted twice (the second pick adds nothing: their affordances
+    hold the episode's rows already) and some not at all. Off: each non-null
     space once, in random order (docs/algorithm.md, departures, for what each measured)."""
     paper_matching: bool = False
-    """Algorithm 2's Matches as the paper writes it (issue 16, item 3): a picked space S's data
-    are matched against *every* affordance of H, not only those with output S. An affordance
-    of another output of the same property (a position for a position) matches when its
+    """Algorithm 2's Matches as the paper writes it: a picked space S's data are matched
+    against *every* affordance of H, not only those with output S. An affordance of another
+    output of the same property (a position for a position) matches when its
     model, given the episode's rows with S's outcome in place of its own, keeps its held-out
     competence within `match_tolerance` (`Adaptation.matches_other_output`); such a match
     explains S, and no new affordance is tried for S at that pick (the paper creates one only

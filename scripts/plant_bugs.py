@@ -60,12 +60,22 @@ BUGS = (
         "np.sqrt(np.mean(np.square(y_nb))), 1e-12)",
         "tests/learner/test_models.py::test_a_robust_fit_does_not_depend_on_the_other_queries_"
         "of_its_batch"),
+    Bug("damaged-schema-read-as-foreign", "store/engine.py",
+        'if getattr(exc.orig, "sqlite_errorcode", None) == sqlite3.SQLITE_CORRUPT:',
+        'if getattr(exc.orig, "sqlite_errorcode", None) == -1:',
+        "tests/test_first_day.py::test_a_store_damaged_where_its_schema_is_read_is_refused_as_"
+        "damaged"),
+    Bug("store-check-stops-at-damaged-schema", "hadim_cli/commands/store_cmd.py",
+        "except DamagedStore:  # damaged where the schema is read",
+        "except ValueError:  # damaged where the schema is read",
+        "tests/test_first_day.py::test_a_store_damaged_where_its_schema_is_read_is_refused_as_"
+        "damaged"),
     Bug("finish-trips-ignored", "hadim_cli/learner/planner.py",
         "going_on = self.pc.finish_trips and aff.id in self._placed_for",
         "going_on = self.pc.finish_trips and False",
         "tests/learner/test_planner.py::test_a_trip_under_way_goes_on_until_it_arrives"),
     Bug("finish-trips-not-recorded", "hadim_cli/learner/planner.py",
-        "self._placed_for = frozenset(self._places)",
+        "self._placed_for = frozenset(p.places for p in self.stack if p.places >= 0)",
         "self._placed_for = frozenset()",
         "tests/learner/test_planner.py::test_the_actions_of_a_trip_say_whose_trip_it_is"),
     Bug("pursue-line-final-place", "hadim_cli/learner/planner.py",

@@ -140,6 +140,18 @@ def test_a_database_error_is_one_line(store, tmp_path, args, table):
     one_error_line(invoke(*args, "--store", copy), "cannot be read")
 
 
+def test_a_store_damaged_where_its_schema_is_read_is_refused_as_damaged(store, tmp_path):
+    """SQLite's "malformed" while the store's own metadata is read is damage, not a foreign
+    file: the same one-line refusal, nothing written, and `store check` names it (exit 1)."""
+    copy = damaged_table(store, tmp_path, "meta")
+    before = copy.read_bytes()
+    one_error_line(invoke("resume", "run-1", "-n", 150, "--store", copy), "is damaged")
+    assert copy.read_bytes() == before
+    result = invoke("store", "check", "--store", copy)
+    assert result.exit_code == 1, result.output
+    assert "damaged" in result.stdout and "runs not read" in result.stdout
+
+
 def test_store_check_names_what_is_damaged(store, tmp_path):
     sound = ok("store", "check", "--store", store).stdout
     assert "integrity_check ok" in sound and "run-1: readable (100 iterations" in sound

@@ -31,18 +31,19 @@ def check(store: StoreOption = None) -> None:
         raise HadimError(f"no store at {where}")
     try:
         engine.check_sqlite_file(path, create=False)
+        schema_read = True
     except DamagedStore:  # damaged where the schema is read: say what SQLite finds, as below
-        opened = False
-    else:
-        opened = True
+        schema_read = False
     problems = engine.quick_check(path, full=True)
     typer.echo(f"{where}: " + ("integrity_check ok" if not problems else
                                f"integrity_check found {len(problems)} problem(s):"))
     for line in problems:
         typer.echo(f"  {line}")
-    unreadable = _check_runs(where) if opened else 1
-    if not opened:
+    if schema_read:
+        unreadable = _check_runs(where)
+    else:
         typer.echo("  runs not read: the store's schema cannot be read")
+        unreadable = 1
     if problems or unreadable:
         typer.echo("damaged: copy out what can be read (docs/store.md, 'A damaged store'); "
                    "hadim refuses to write into this file")

@@ -70,6 +70,8 @@ class Pursuit:
     label: str
     goal: np.ndarray
     binding: Binding
+    places: int = -1
+    """The affordance whose context this pursuit places (a trip; -1: not a placement)."""
 
 
 @dataclass(frozen=True)
@@ -92,6 +94,25 @@ def _normalise_heading(space: RoleSpace, value: np.ndarray) -> np.ndarray:
         n = np.linalg.norm(value)
         return value / n if n > 1e-9 else np.array([1.0, 0.0])
     return value
+
+
+def _context_part(aff: Affordance, c: np.ndarray, space: RoleSpace) -> np.ndarray | None:
+    """The columns of the context vector `c` of `aff` that hold `space` (None: not a context
+    of `aff`)."""
+    offset = 0
+    for context, dim in zip(aff.contexts, aff.model.context_dims, strict=True):
+        if context == space:
+            return c[offset:offset + dim]
+        offset += dim
+    return None
+
+
+def _unit_heading(h: np.ndarray | None) -> np.ndarray | None:
+    """`h` scaled to unit length (None when absent or null)."""
+    if h is None:
+        return None
+    n = float(np.linalg.norm(h))
+    return h / n if n > 1e-9 else None
 
 
 class Pusher(Protocol):
@@ -123,12 +144,8 @@ class Planner:
         self.trips = 0
         """Trips to a place (re-placements of the robot or of a tool) of the last goal: each
         counted once, when it starts after an action that was not a placement."""
-        self._placing = False
-        """Whether the last primitive action served a placement (a trip under way)."""
-        self._places: list[int] = []
-        """Affordances whose context is being placed now (innermost last)."""
         self._placed_for: frozenset[int] = frozenset()
-        """Affordances whose placement the last primitive action served (`finish_trips`)."""
+        """Affordances whose placement the last primitive action served (a trip under way)."""
         self.pusher: Pusher | None = None
         """An exact stand-in for the robot pushing an object where a level above asks
         (`evaluation.exact`, evaluation only); None: the learned affordances push."""
@@ -163,7 +180,6 @@ class Planner:
         if depth == 0:
             self.navigator.forget()
             self.trips = 0
-            self._placing = False
             self._placed_for = frozenset()
         self.stack.append(Pursuit(f"A{aff.id} {aff.output.name}", goal, b))
         try:
@@ -432,15 +448,9 @@ class Planner:
 
     def _needed_heading(self, aff: Affordance, needed: np.ndarray) -> np.ndarray | None:
         """The robot's heading in `needed` when `_poses` chose it (None otherwise)."""
-        poses = self._poses(aff)
-        if not poses.any():
+        if not self.pc.pose_places:
             return None
-        offset = 0
-        for space, dim, pose in zip(aff.contexts, aff.model.context_dims, poses, strict=True):
-            if pose:
-                return _normalise_heading(space, needed[offset:offset + dim])
-            offset += dim
-        return None
+        return _unit_heading(_context_part(aff, needed, ROBOT_HEADING))
 
     def reachable_relations(self, aff: Affordance) -> np.ndarray:
         """Per context space of `aff`: whether it is a relative position (e.g. target-robot)
@@ -671,8 +681,7 @@ class Planner:
     def _act(self, actuator: Actuator, action: np.ndarray) -> None:
         """One primitive action, remembering whether it served a placement (`trips`)."""
         actuator.act(action)
-        self._placing = any(p.label.startswith("place ") for p in self.stack)
-        self._placed_for = frozenset(self._places)
+        self._placed_for = frozenset(p.places for p in self.stack if p.places >= 0)
 
     def heading_for(self, move: np.ndarray, obs: np.ndarray, b: Binding) -> np.ndarray | None:
         """The heading from which the robot's learned motion produces the displacement `move`
@@ -685,14 +694,7 @@ class Planner:
         c = self.context(mover, obs, b)
         scale = self.step_size(mover) / max(float(np.linalg.norm(move)), 1e-9)
         pose = self.nearest_pose(mover, move * scale, c)
-        offset = 0
-        for space, dim in zip(mover.contexts, mover.model.context_dims, strict=True):
-            if space == heading:
-                h = pose[offset:offset + dim]
-                n = float(np.linalg.norm(h))
-                return h / n if n > 1e-9 else None
-            offset += dim
-        return None
+        return _unit_heading(_context_part(mover, pose, heading))
 
     def foresees_contact(self, b: Binding, action: np.ndarray, obs: np.ndarray) -> bool:
         """Whether the robot's own motion model predicts that `action` brings the robot within
@@ -735,14 +737,12 @@ class Planner:
             if (driven == ROBOT_HEADING and heading is not None and self._navigating()
                     and line_angle(current, goal) <= self.pc.heading_tolerance):
                 continue  # the robot arrived at its place facing the heading needed
-            self.stack.append(Pursuit(f"place {space.name} for A{aff.id}", goal, b))
-            self._places.append(aff.id)
+            self.stack.append(Pursuit(f"place {space.name} for A{aff.id}", goal, b, aff.id))
             try:
                 done = self._place(aff, b, i, driven, goal, sub_b, controllers[0], spreads,
                                    actuator, budget - used, depth, then, heading)
             finally:
                 self.stack.pop()
-                self._places.pop()
             if done < 0:
                 return used if used > 0 else -1
             used += done
@@ -765,7 +765,7 @@ class Planner:
                 np.linalg.norm(goal - self.reader.entity_position(actuator.obs, b.avoid))
                 < self._avoid_distance(actuator.obs, b)):
             return -1
-        starting = not self._placing  # the planner replans every action: a trip goes on
+        starting = not self._placed_for  # the planner replans every action: a trip goes on
         target_entity = sub_b.target if driven.role is not Role.ROBOT else -1
         waypoints = self._waypoints(driven, goal, actuator.obs, b, target_entity)
         space = aff.contexts[i]

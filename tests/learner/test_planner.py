@@ -690,11 +690,14 @@ def test_a_trip_under_way_goes_on_until_it_arrives():
 def test_the_actions_of_a_trip_say_whose_trip_it_is():
     """What `finish_trips` reads: after an action taken while placing the context of an
     affordance, `_placed_for` names that affordance; after a plain push, none."""
+    from hadim_cli.learner.planner import Pursuit
+
     planner = _planner()
     world = SimpleNamespace(act=lambda action: None)
-    planner._places.append(4)
+    planner.stack.append(Pursuit("A6 target.position", np.zeros(2), Binding(target=1)))
+    planner.stack.append(Pursuit("place target-robot for A4", np.zeros(2), Binding(), 4))
     planner._act(world, np.zeros(2))
     assert planner._placed_for == frozenset({4})
-    planner._places.pop()
+    planner.stack.pop()
     planner._act(world, np.zeros(2))
     assert planner._placed_for == frozenset()
