@@ -179,6 +179,11 @@ class LearnerConfig:
     its wheels say; such rows among free moves bent the local fits (held-out error on free
     moves: 90th percentile 3.8 cm with them, 1.0 cm without, docs/notes.md). Off: every
     action's row."""
+    body_frame: bool = False
+    """With `relation_frames`: fit the robot's own motion affordances (primitive action →
+    robot position or heading) with the robot's heading as a context in the frame of that
+    heading, where a wheel command moves the robot the same way whichever way it faces. Off:
+    in room coordinates, where neighbours of other headings turn each prediction."""
     zero_eps: float = 0.004
     """An outcome smaller than this (in its space's units) counts as null."""
     tau_creation: float = 0.3
@@ -231,6 +236,11 @@ class LearnerConfig:
     """Competences the learning progress of a region is computed over."""
     interest_epsilon: float = 0.2
     """Probability of a uniform choice (of affordance, of region) instead of by interest."""
+    untried_interest: bool = False
+    """AffordanceSelection takes an affordance that has been tried on fewer goals than
+    `interest_window` (its learning progress not measured yet) as interesting as the most
+    interesting one, so every affordance H gains is practised before its interest decides.
+    Off: its map's interest (the unexplored floor, then the progress of its few goals)."""
     paper_interest: bool = False
     """The interest maps as the paper has them (§4.4 and Algorithm 1's UpdateInterestMaps):
     after every learning episode, goal babbling or random, each affordance's map records every
@@ -414,6 +424,19 @@ class PlannerConfig:
     made facing it), and the robot drives there arriving facing it, in one trip. Off: the
     heading needed is the one the robot had before the trip, and the robot turns back to it
     after driving there."""
+    closer_places: bool = False
+    """A relation on the bearing of the needed one but shorter (the pusher nearer its object,
+    down to contact) counts as the needed place: only the bearing, and being further than
+    needed, take a pusher off its place. Off: any difference of the relation does."""
+    contact_places: bool = False
+    """With `closer_places`: a trip to a needed relation that reads a gap between the bodies
+    drives to contact (plus the contact margin) on that relation's bearing instead, so the
+    first action from there pushes. Off (or `closer_places` off): to the needed relation as
+    it reads, from where the push's first action closes the gap."""
+    relations_seen: bool = False
+    """A needed relative position fitted shorter than every row it was fitted on (rows from
+    both sides of an object averaging to a place inside it) is replaced by the relation of
+    the row most rows agree with. Off: the fit stands."""
     replace_by_cost: bool = False
     """Re-place only when the trip (its estimated actions) plus pushing from the new place
     costs less than pushing on from here at the rate the forward model predicts; off: the

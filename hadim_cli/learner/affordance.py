@@ -273,7 +273,8 @@ class Fitter:
     def new_model(self, inp: RoleSpace, out: RoleSpace,
                   contexts: tuple[RoleSpace, ...]) -> Model:
         """An empty model of (inp → out | contexts): in the frame of its relation context when
-        `relation_frames` is on and it has one (`relation_frame`)."""
+        `relation_frames` is on and it has one, or of the robot's heading (`body_frame`)
+        (`relation_frame`)."""
         layout = self.reader.layout
         low = np.array([-1.0, -1.0]) if inp is ACTION else None
         high = np.array([1.0, 1.0]) if inp is ACTION else None
@@ -281,7 +282,8 @@ class Fitter:
                 [space_dim(c, layout) for c in contexts])
         params = {"k_forward": self.config.k_forward, "k_inverse": self.config.k_inverse,
                   "robust_iterations": self.config.robust_fit, "x_low": low, "x_high": high}
-        frame = relation_frame(inp, out, contexts) if self.config.relation_frames else None
+        frame = (relation_frame(inp, out, contexts, body=self.config.body_frame)
+                 if self.config.relation_frames else None)
         if frame is not None:
             return FramedModel(*dims, frame, **params)
         return LocalLinearModel(*dims, **params)

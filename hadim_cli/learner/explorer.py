@@ -208,6 +208,13 @@ class Learner:
         (uniformly with probability `interest_epsilon`)."""
         affordances = list(self.hierarchy)
         interests = [a.interest.interest for a in affordances]
+        if self.config.untried_interest:
+            # An affordance whose progress is not measured yet (fewer goals tried than the
+            # window) counts as the most interesting: a new affordance (the tool, found last)
+            # was otherwise tried on 2-11 goals in a whole run, at the noise floor's odds.
+            top = max(interests)
+            interests = [top if a.interest.n_goals < self.config.interest_window else i
+                         for a, i in zip(affordances, interests, strict=True)]
         return affordances[select_index(interests, rng, self.config.interest_epsilon)]
 
     def _goal_babbling(self, actuator: Actuator, rng: np.random.Generator) -> Explored:

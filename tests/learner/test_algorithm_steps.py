@@ -347,6 +347,31 @@ def test_goal_babbling_picks_affordances_by_interest_and_records_the_attempt(mon
     assert recorded == [(aid, 0.5) for aid, _ in tried]  # Attempt(1.0, 0.5, …): 1 − 0.5
 
 
+@pytest.mark.parametrize("untried", [False, True])
+def test_an_affordance_tried_on_few_goals_is_practised_with_untried_interest(untried):
+    """`learner.untried_interest`: an affordance tried on fewer goals than the interest
+    window counts as interesting as the most interesting one (its progress is unmeasured).
+    Off, its map's floor (0.02) against a map at 0.5 gets it ≈ 10 % of the picks (ε only);
+    on, about half. Once tried on a window of goals, its own interest decides again."""
+    room = Room(sigma=1.0, untried_interest=untried)
+    rng = np.random.default_rng(0)
+    t = room.moves(rng, 100)
+    keen = room.affordance(t, (ROBOT_HEADING,))
+    new = room.affordance(t, (), out=ROBOT_HEADING)
+    for i in range(20):  # learning progress 0.5
+        keen.interest.add([0.0, 0.0], 0.0 if i < 10 else 0.5, i)
+    for i in range(room.config.interest_window - 1):
+        new.interest.add([0.0, 0.0], 0.3, i)  # one goal short of a measured window
+
+    def share() -> float:
+        picks = [room.learner.affordance_selection(rng).id for _ in range(400)]
+        return picks.count(new.id) / len(picks)
+
+    assert (0.4 < share() < 0.6) if untried else (share() < 0.15)
+    new.interest.add([0.0, 0.0], 0.3, 99)  # a whole window: flat competence, no progress
+    assert share() < 0.15
+
+
 def test_a_goal_attempt_that_cannot_be_planned_falls_back_to_random_babbling(monkeypatch):
     room = Room(sigma=1.0)
     rng = np.random.default_rng(0)

@@ -701,3 +701,110 @@ def test_the_actions_of_a_trip_say_whose_trip_it_is():
     planner.stack.pop()
     planner._act(world, np.zeros(2))
     assert planner._placed_for == frozenset()
+
+
+def _pusher_at(relation_now, needed, closer: bool):
+    """A push level (`robot.position → target.position | target-robot`, spread 0.1) whose
+    relation reads `relation_now` and whose step asks for `needed`; what `_one_step` does:
+    'trip' (a re-placement) or 'push' (the inverse answer executed)."""
+    from dataclasses import replace
+
+    planner = _planner()
+    planner.pc = replace(planner.pc, closer_places=closer, steer=False, hold_relation=False)
+    aff = SimpleNamespace(id=3, model=SimpleNamespace(n=100, context_dims=(2,)),
+                          contexts=(TARGET_ROBOT,), input=ROBOT_POSITION, output=TARGET_POSITION)
+    answer = SimpleNamespace(x=np.array([0.05, 0.0]), y_predicted=np.array([0.05, 0.0]))
+    aff.model.infer = lambda delta, c=None: answer
+    planner.context = lambda *args: np.asarray(relation_now, dtype=float)
+    planner.reachable_relations = lambda a: np.array([True])
+    planner._spreads = lambda a: [0.1]
+    planner.support_gap = lambda *args: 0.0
+    planner.needed_context = lambda *args: np.asarray(needed, dtype=float)
+    planner.step_size = lambda a: 0.1
+    done = []
+    planner._reach_context = lambda *args, **kw: done.append("trip") or 3
+    planner.execute = lambda *args, **kw: done.append("push") or 1
+    planner._one_step(aff, Binding(target=1), np.array([0.05, 0.0]),
+                      SimpleNamespace(obs=np.zeros(4)), 80, 0, spare_trips=False)
+    return done[0]
+
+
+def test_a_pusher_nearer_on_the_needed_bearing_stands_at_its_place():
+    """`planner.closer_places`: the rows a small push is chosen from began up to 9 cm short of
+    contact; the push that closed that gap read as a pusher 9 cm off its place, and the next
+    step sent it back there. On the needed bearing and nearer, it pushes; off the bearing, or
+    further than needed, it still re-places."""
+    contact, gap = [0.3, 0.0], [0.39, 0.0]
+    assert _pusher_at(contact, gap, closer=False) == "trip"
+    assert _pusher_at(contact, gap, closer=True) == "push"
+    turned = 0.3 * np.array([np.cos(0.5), np.sin(0.5)])  # in contact, 29° off the bearing
+    assert _pusher_at(turned, gap, closer=True) == "trip"
+    assert _pusher_at([0.49, 0.0], gap, closer=True) == "trip"  # 10 cm further than needed
+
+
+def test_a_trip_drives_to_contact_on_the_needed_bearing():
+    """`planner.contact_places` (with `closer_places`): the place a trip drives to is the
+    needed relation brought to contact (plus the contact margin) on its bearing; a relation
+    already within that, and a context that is not a relation the planner drives, stay."""
+    from dataclasses import replace
+
+    from hadim_cli.learner.affordance import CONTACT_MARGIN
+
+    planner = Planner(Hierarchy(), SimpleNamespace(relation_offset=0.3),
+                      load_config().learner)
+    aff = SimpleNamespace(id=3, model=SimpleNamespace(context_dims=(2, 1)),
+                          contexts=(TARGET_ROBOT, RADIUS))
+    planner.reachable_relations = lambda a: np.array([True, False])
+    planner._spreads = lambda a: [0.1, 0.1]
+    planner._needed_heading = lambda *args: None
+    seen = []
+    planner._context_plans = lambda a, b, needed, obs: seen.append(needed.copy()) or iter(())
+    actuator = SimpleNamespace(obs=np.zeros(4), exhausted=False)
+    needed = np.array([0.0, 0.42, 0.9])
+    for contact, closer, want in (
+            (False, True, needed),
+            (True, False, needed),
+            (True, True, np.array([0.0, 0.3 + CONTACT_MARGIN, 0.9]))):
+        planner.pc = replace(planner.pc, contact_places=contact, closer_places=closer)
+        planner._reach_context(aff, Binding(target=1), needed, actuator, 80, 0)
+        assert np.allclose(seen[-1], want)
+    near = np.array([0.0, 0.31, 0.9])
+    planner._reach_context(aff, Binding(target=1), near, actuator, 80, 0)
+    assert np.allclose(seen[-1], near)
+
+
+def test_a_needed_relation_inside_the_object_gives_way_to_the_rows_own():
+    """`planner.relations_seen`: rows agreeing on a push from both sides of an object fit a
+    relation inside it (0.087 from rows of 0.30-0.63, traced on a learner whose every tool
+    placement then shoved the target). Such a fit gives way to the relation of the row most
+    rows agree with; a fit within the rows' lengths (less their spread) stands, and so does
+    any context that is not a relative position."""
+    planner = _planner()
+    aff = SimpleNamespace(contexts=(TARGET_ROBOT, RADIUS),
+                          model=SimpleNamespace(context_dims=(2, 1)))
+    rows = np.array([[0.30, 0.00, 0.1], [-0.30, 0.05, 0.1], [0.00, 0.35, 0.1],
+                     [0.63, 0.00, 0.1]])
+    best = rows[2]
+    inside = np.array([0.087, 0.007, 0.02])
+    assert np.allclose(planner._seen_relation(aff, inside, rows, best), [0.0, 0.35, 0.02])
+    near = np.array([0.25, 0.0, 0.02])  # 5 cm short of the shortest row: within the spread
+    assert np.allclose(planner._seen_relation(aff, near, rows, best), near)
+
+
+def test_the_needed_context_checks_its_relation_against_the_rows_when_asked():
+    """`needed_context` hands its fit to `_seen_relation` with `relations_seen` on: a fit
+    inside the object (stood in for here) comes back as a relation of the rows."""
+    from dataclasses import replace
+
+    rng = np.random.default_rng(0)
+    model = _push_like_model(rng, outliers=0)
+    aff = SimpleNamespace(model=model, contexts=(RADIUS, TARGET_ROBOT), id=1)
+    planner = _planner()
+    planner._relation_at = lambda dy, rel, w: np.array([0.01, 0.0])  # a fit inside
+    c = np.array([0.12, 0.3, 0.0])
+    relations = np.array([False, True])
+    delta = np.array([0.05, 0.0])
+    assert np.allclose(planner.needed_context(aff, delta, c, relations)[1:], [0.01, 0.0])
+    planner.pc = replace(planner.pc, relations_seen=True)
+    needed = planner.needed_context(aff, delta, c, relations)
+    assert np.linalg.norm(needed[1:]) > 0.2  # a row's: radius + 0.15 from the centre
