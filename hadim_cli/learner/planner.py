@@ -630,8 +630,10 @@ class Planner:
         """`needed` with each relation the planner drives that reads a gap between the bodies
         brought to contact (plus `CONTACT_MARGIN`) on its own bearing (`contact_places`): the
         place a trip drives to. From a gap, the push's first action only closed it."""
+        if not (self.pc.contact_places and self.pc.closer_places):
+            return needed
         offset = self.reader.relation_offset
-        if not (self.pc.contact_places and self.pc.closer_places) or offset is None:
+        if offset is None:
             return needed
         relations = self.reachable_relations(aff)
         out, start = needed.copy(), 0
