@@ -29,7 +29,9 @@ checkpoint and D and rebuild the learner (and the CPU seconds of that, which a l
 changes little), and from there to the first new iteration. With `--then N` it goes on for N
 iterations (whole episodes, nothing stored) and prints their wall and CPU seconds: the cost
 per iteration at that point of the run, measured in CPU time, which a shared machine's load
-changes little; and D's digest at the end and that of the new rows alone.
+changes little; and D's digest at the end and that of the new rows alone. `--profile PROF`
+also writes a cProfile of those N iterations, timed in CPU seconds (the profiler's overhead
+is in the printed CPU seconds then: compare profiles with profiles).
 """
 
 from __future__ import annotations
@@ -377,9 +379,19 @@ def time_restore(args: argparse.Namespace) -> None:
     session.world.step = timed
     start = session.iteration
     d = session.learner.dataset
+    profiler = None
+    if args.profile:
+        import cProfile
+
+        # CPU time, not wall: on a shared machine the wall clock measures the others' jobs.
+        profiler = cProfile.Profile(time.process_time)
+        profiler.enable()
     c0, w0 = time.process_time(), time.perf_counter()
     session.run(start + max(args.then, 1))  # at least one episode
     cpu, wall = time.process_time() - c0, time.perf_counter() - w0
+    if profiler is not None:
+        profiler.disable()
+        profiler.dump_stats(args.profile)
     done = session.iteration - start
     print(json.dumps({"iteration": start, "import_torch_s": round(t1 - t0, 2),
                       "restore_s": round(t2 - t1, 2), "restore_cpu_s": round(c2 - c1, 2),
@@ -475,6 +487,9 @@ def main() -> None:
     p.add_argument("--time-restore", action="store_true")
     p.add_argument("--at", type=int, default=None)
     p.add_argument("--then", type=int, default=0)
+    p.add_argument("--profile", default=None, metavar="PROF",
+                   help="with --time-restore: a cProfile (CPU timer) of the new iterations, "
+                        "to read with pstats")
     p.add_argument("--delta-bytes", type=int, nargs="+", default=None, metavar="T",
                    help="bytes of the checkpoint at T as stored and as this hadim's delta")
     args = p.parse_args()

@@ -60,6 +60,18 @@ BUGS = (
         "np.sqrt(np.mean(np.square(y_nb))), 1e-12)",
         "tests/learner/test_models.py::test_a_robust_fit_does_not_depend_on_the_other_queries_"
         "of_its_batch"),
+    Bug("buffer-tie-at-the-edge-ignored", "hadim_cli/learner/models.py",
+        "redo = np.flatnonzero(tie < used)", "redo = np.flatnonzero(tie + 1 < used)",
+        "tests/learner/test_models_search.py::test_models_answer_alike_with_and_without_"
+        "buffer_trees"),
+    Bug("turn-units-not-extended", "hadim_cli/learner/frames.py",
+        "        if have < self.n:", "        if have == 0:",
+        "tests/learner/test_frames.py::test_the_kept_norms_and_directions_follow_the_rows_"
+        "added"),
+    Bug("turn-near-null-not-measured", "hadim_cli/learner/frames.py",
+        "_NEAR = 1e-9\n", "_NEAR = 0.0\n",
+        "tests/learner/test_frames.py::test_outcomes_at_the_null_threshold_are_measured_"
+        "turned"),
     Bug("damaged-schema-read-as-foreign", "store/engine.py",
         'if getattr(exc.orig, "sqlite_errorcode", None) == sqlite3.SQLITE_CORRUPT:',
         'if getattr(exc.orig, "sqlite_errorcode", None) == -1:',

@@ -17,12 +17,13 @@ Which relation frames an affordance: `relation_frame` (docs/algorithm.md, "Relat
 
 from __future__ import annotations
 
-from collections.abc import Callable, Sequence
+from collections.abc import Sequence
 from dataclasses import dataclass
-from typing import Any
+from typing import Any, NamedTuple
 
 import numpy as np
 
+from hadim_cli.learner.competence import split_zero
 from hadim_cli.learner.models import (
     InverseResult,
     LocalLinearModel,
@@ -35,6 +36,9 @@ from hadim_cli.world.layout import Property
 
 _ZERO_LENGTH = 1e-12
 """A relation shorter than this has no bearing: its frame is the room's."""
+_NEAR = 1e-9
+"""Outcomes whose stored norm is within this fraction of the null threshold have their turned
+outcome measured (`FramedModel.turned_where`); a turn changes a norm by ~1e-16 of it."""
 
 
 @dataclass(frozen=True)
@@ -106,6 +110,52 @@ def _unturn(v: np.ndarray, u: np.ndarray) -> np.ndarray:
                      v[:, 0] * u[:, 1] + v[:, 1] * u[:, 0]], axis=1)
 
 
+def _unit_vectors(v: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Norms of the vectors `v` (Q, 2) and their directions (zero where no longer than
+    `_ZERO_LENGTH`)."""
+    norm = np.linalg.norm(v, axis=1)
+    unit = np.zeros_like(v, dtype=float)
+    ok = norm > _ZERO_LENGTH
+    unit[ok] = v[ok] / norm[ok, None]
+    return norm, unit
+
+
+def _turns_to(want: np.ndarray, norm: np.ndarray, unit: np.ndarray) -> np.ndarray:
+    """Per row, the turn (a unit vector) that takes the direction `unit` (of length `norm`)
+    to that of `want`: want/|want| times unit conjugated; none (1, 0) for a row or a `want`
+    too short to have a direction."""
+    norm_want = float(np.linalg.norm(want))
+    if not norm_want > _ZERO_LENGTH:
+        return np.tile([1.0, 0.0], (norm.shape[0], 1))
+    w, h0, h1 = want / norm_want, unit[:, 0], unit[:, 1]
+    turn = np.empty((norm.shape[0], 2))
+    turn[:, 0] = w[0] * h0 + w[1] * h1
+    turn[:, 1] = w[1] * h0 - w[0] * h1
+    turn[norm <= _ZERO_LENGTH] = (1.0, 0.0)
+    return turn
+
+
+class _Units(NamedTuple):
+    """Per row of a `FramedModel`: what the turns of its rows are made of."""
+
+    norm_y: np.ndarray
+    """The norm of the outcome."""
+    unit_y: np.ndarray
+    """Its direction (zero for a null outcome)."""
+    norm_r: np.ndarray
+    """The length of the framing relation."""
+    unit_r: np.ndarray
+    """Its direction."""
+
+    @classmethod
+    def of(cls, y: np.ndarray, r: np.ndarray) -> _Units:
+        """Of rows with outcomes `y` and framing relations `r` (2-D vectors: a model whose
+        outcome does not turn has its norms, and directions it never reads)."""
+        norm_y, unit_y = _unit_vectors(y) if y.shape[1] == 2 else \
+            (np.linalg.norm(y, axis=1), np.zeros((y.shape[0], 2)))
+        return cls(norm_y, unit_y, *_unit_vectors(r))
+
+
 class FramedModel:
     """The rows of one affordance and a `LocalLinearModel` fitted on them in the frame of a
     relation (see the module docstring). Offers what the learner asks of a model: `add`,
@@ -136,6 +186,8 @@ class FramedModel:
         self._room = np.empty((64, self.dx + self.dc + self.dy))
         """Rows [0, n) in room coordinates (grown by doubling, like the inner model's)."""
         self._scale_cache: tuple[int, SpaceScale] | None = None
+        self._kept = _Units.of(np.empty((0, self.dy)), np.empty((0, 2)))
+        """`_Units` of the rows known at the last `_units()`."""
 
     # ------------------------------------------------------------------ frames
     def _bearing(self, c: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -229,24 +281,65 @@ class FramedModel:
             return x, c, y
         return (*self._turn_rows(x, c, turn), self._vector(y, turn, self.frame.y, back=True))
 
-    def turned_where(self, keep: Callable[[np.ndarray], np.ndarray], *,
-                     along: np.ndarray | None = None, at: np.ndarray | None = None
+    def turned_where(self, zero_eps: float, *, along: np.ndarray | None = None,
+                     at: np.ndarray | None = None
                      ) -> tuple[np.ndarray | None, np.ndarray, np.ndarray, np.ndarray]:
-        """(indices, X, C, Y): the rows whose turned outcome `keep` (a mask of Y's rows)
-        accepts, turned as `turned` turns them — all rows (indices None) if it accepts none.
-        The outcomes are turned for every row, the inputs and contexts for those rows only."""
+        """(indices, X, C, Y): the rows whose turned outcome is not null (‖y‖ > `zero_eps`,
+        `competence.split_zero`'s rule), turned as `turned` turns them, bit for bit — all
+        rows (indices None) if none is.
+
+        Only those rows are turned: a turn keeps a norm to a few units in the last place, so
+        the stored outcome's norm decides for every row but those within `_NEAR` of
+        `zero_eps`, whose turned outcome is measured. The norms and the unit vectors that
+        turns are made of are kept per row (`_Units`), extended as rows come in: a call
+        costs a comparison per row and the turning of the rows it returns."""
+        if not zero_eps > 0:
+            raise ValueError(f"zero_eps must be > 0, got {zero_eps}")
+        if (along is None) == (at is None):
+            raise ValueError("turn the rows either along an outcome or at a context")
         x, c, y = self.data()
-        turn = self._turns(along, at, y, c)
-        if turn is not None:
-            y = self._vector(y, turn, self.frame.y, back=True)
-        mask = keep(y)
-        rows = np.flatnonzero(mask) if mask.any() else None
-        if rows is not None:
-            x, c, y = x[rows], c[rows], y[rows]
-            turn = None if turn is None else turn[rows]
-        if turn is None:
+        norm = self._units().norm_y
+        turned = along is None or self.frame.y   # along an outcome that does not turn: as stored
+        if turned and self.frame.y:
+            mask = norm > zero_eps * (1.0 + _NEAR)
+            near = np.flatnonzero(~mask & (norm >= zero_eps * (1.0 - _NEAR)))
+            if near.size:
+                mask[near] = ~split_zero(_unturn(y[near], self._turns_of(near, along, at)),
+                                         zero_eps)
+        else:
+            mask = norm > zero_eps
+        if not mask.any():
+            return (None, *self.turned(along=along, at=at))
+        rows = np.flatnonzero(mask)
+        x, c, y = x[rows], c[rows], y[rows]
+        if not turned:
             return rows, x, c, y
-        return (rows, *self._turn_rows(x, c, turn), y)
+        turn = self._turns_of(rows, along, at)
+        return (rows, *self._turn_rows(x, c, turn), self._vector(y, turn, self.frame.y,
+                                                                  back=True))
+
+    def _units(self) -> _Units:
+        """`_Units` of rows [0, n), extended by the rows added since the last call."""
+        have = self._kept.norm_y.size
+        if have < self.n:
+            _, c, y = self.data()
+            s = self._starts[self.frame.axis]
+            new = _Units.of(y[have:], c[have:, s:s + 2])
+            self._kept = _Units(*(np.concatenate([old, part]) for old, part in
+                                  zip(self._kept, new, strict=True)))
+        return self._kept
+
+    def _turns_of(self, rows: np.ndarray, along: np.ndarray | None,
+                  at: np.ndarray | None) -> np.ndarray:
+        """`_turns(along, at, …)` of the rows `rows`, bit for bit, from the kept `_Units`."""
+        units = self._units()
+        if along is not None:
+            want, norm, unit = np.asarray(along, dtype=float), units.norm_y, units.unit_y
+        else:
+            s = self._starts[self.frame.axis]
+            want = as_rows(at, self.dc, "c")[0, s:s + 2]
+            norm, unit = units.norm_r, units.unit_r
+        return _turns_to(want, norm[rows], unit[rows])
 
     def _turn_rows(self, x: np.ndarray, c: np.ndarray, turn: np.ndarray
                    ) -> tuple[np.ndarray, np.ndarray]:
@@ -270,16 +363,7 @@ class FramedModel:
         else:
             s = self._starts[self.frame.axis]
             want, have = as_rows(at, self.dc, "c")[0, s:s + 2], c[:, s:s + 2]
-        norm_want = float(np.linalg.norm(want))
-        norm_have = np.linalg.norm(have, axis=1)
-        ok = norm_have > _ZERO_LENGTH
-        # The turn of each row, as a unit vector: want/|want| times have/|have| conjugated.
-        turn = np.tile([1.0, 0.0], (have.shape[0], 1))
-        if norm_want > _ZERO_LENGTH:
-            h = have[ok] / norm_have[ok, None]
-            w = want / norm_want
-            turn[ok] = np.c_[w[0] * h[:, 0] + w[1] * h[:, 1], w[1] * h[:, 0] - w[0] * h[:, 1]]
-        return turn
+        return _turns_to(want, *_unit_vectors(have))
 
     # ------------------------------------------------------------------ models
     def predict(self, x: np.ndarray, c: np.ndarray | None = None) -> np.ndarray:
@@ -373,16 +457,16 @@ def seen(model: Model, *, along: np.ndarray | None = None, at: np.ndarray | None
     return model.data()
 
 
-def seen_where(model: Model, keep: Callable[[np.ndarray], np.ndarray], *,
-               along: np.ndarray | None = None, at: np.ndarray | None = None
+def seen_where(model: Model, zero_eps: float, *, along: np.ndarray | None = None,
+               at: np.ndarray | None = None
                ) -> tuple[np.ndarray | None, np.ndarray, np.ndarray, np.ndarray]:
-    """(indices, X, C, Y): the rows of `seen(model, along=…, at=…)` whose outcome `keep`
-    accepts (all rows, indices None, if it accepts none), the same values bit for bit; only
-    those rows' inputs and contexts are turned (`FramedModel.turned_where`)."""
+    """(indices, X, C, Y): the rows of `seen(model, along=…, at=…)` whose outcome is not null
+    (‖y‖ > `zero_eps`; all rows, indices None, if none is), the same values bit for bit; only
+    those rows are turned (`FramedModel.turned_where`)."""
     if isinstance(model, FramedModel):
-        return model.turned_where(keep, along=along, at=at)
+        return model.turned_where(zero_eps, along=along, at=at)
     x, c, y = model.data()
-    mask = keep(y)
+    mask = ~split_zero(y, zero_eps)
     if not mask.any():
         return None, x, c, y
     rows = np.flatnonzero(mask)

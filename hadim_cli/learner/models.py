@@ -20,7 +20,8 @@ buffer of more than `_BUFFER_TREE` rows is searched through a KD-tree of its own
 query finds it has grown (rows come in once per learning episode, and an evaluation adds none:
 one build serves every query until the next add); that tree only proposes candidates, whose
 distances are computed as a scan of the buffer computes them, so the answers are bit-identical
-to the scan (`_brute_knn`, kept as the reference and used for small buffers).
+to the scan (`_brute_knn`, kept as the reference and used for small buffers; a query whose
+answer takes buffer rows at or after an exact tie is answered by the scan).
 Every local fit is vectorised over queries: one stacked `np.linalg.solve`. With fewer
 neighbours than unknowns the fit drops the context slopes, then all slopes (the mean).
 
@@ -542,17 +543,22 @@ class LocalLinearModel:
             return dist, nb
         buf = self._buffer(index, col_scale)
         k_buf = min(k, buf.shape[0])
-        if buf.shape[0] > _BUFFER_TREE:
-            if index.buffer_tree is None:
-                index.buffer_tree = cKDTree(buf)
-            b_dist, b_nb = _tree_knn(zq, buf, index.buffer_tree, k_buf)
-        else:
+        if buf.shape[0] <= _BUFFER_TREE:
             b_dist, b_nb = _brute_knn(zq, buf, k_buf)
-        dist = np.concatenate([dist, b_dist], axis=1)
-        nb = np.concatenate([nb, b_nb + index.n_built], axis=1)
-        order = np.argsort(dist, axis=1, kind="stable")[:, :k]
-        rows = np.arange(order.shape[0])[:, None]
-        return dist[rows, order], nb[rows, order]
+            return _merge(dist, nb, b_dist, b_nb + index.n_built, k)
+        if index.buffer_tree is None:
+            index.buffer_tree = cKDTree(buf)
+        b_dist, b_nb, tie = _tree_knn(zq, buf, index.buffer_tree, k_buf)
+        out_dist, out_nb = _merge(dist, nb, b_dist, b_nb + index.n_built, k)
+        # The answer takes the buffer's `used` nearest; the scan orders exactly tied rows
+        # otherwise than the tree's candidates, which matters only where the tie reaches them.
+        used = np.count_nonzero(out_nb >= index.n_built, axis=1)
+        redo = np.flatnonzero(tie < used)
+        if redo.size:
+            b_dist, b_nb = _brute_knn(zq[redo], buf, k_buf)
+            out_dist[redo], out_nb[redo] = _merge(dist[redo], nb[redo], b_dist,
+                                                  b_nb + index.n_built, k)
+        return out_dist, out_nb
 
     def _buffer(self, index: _Index, col_scale: np.ndarray) -> np.ndarray:
         """Normalised rows [n_built, n) of the index's columns, extended as rows come in."""
@@ -692,14 +698,27 @@ def _brute_knn(q: np.ndarray, pts: np.ndarray, k: int) -> tuple[np.ndarray, np.n
     return dist, idx
 
 
+def _merge(dist: np.ndarray, nb: np.ndarray, b_dist: np.ndarray, b_nb: np.ndarray, k: int
+           ) -> tuple[np.ndarray, np.ndarray]:
+    """The k nearest of a tree's answer (`dist`, `nb`) and a buffer's, the tree's first among
+    equal distances."""
+    dist = np.concatenate([dist, b_dist], axis=1)
+    nb = np.concatenate([nb, b_nb], axis=1)
+    order = np.argsort(dist, axis=1, kind="stable")[:, :k]
+    rows = np.arange(order.shape[0])[:, None]
+    return dist[rows, order], nb[rows, order]
+
+
 def _tree_knn(q: np.ndarray, pts: np.ndarray, tree: cKDTree, k: int
-              ) -> tuple[np.ndarray, np.ndarray]:
-    """What `_brute_knn(q, pts, k)` answers, bit for bit, with `tree` (over `pts`) proposing
-    the candidates: its k + `_SLACK` nearest, whose distances are then computed as
-    `_brute_knn` computes them. Rows at exactly equal distances (duplicated rows are common:
-    an object that did not move) come out of `_brute_knn` in the order its partition leaves
-    them, which only a scan of all rows reproduces: a query with such a tie among its k + 1
-    nearest candidates is answered by the scan."""
+              ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The k nearest rows of `pts` by `tree` (over `pts`), and per query the first place
+    j < k whose row is exactly as far as the next (k if none): where the answer may differ from
+    `_brute_knn(q, pts, k)`'s. The tree proposes its k + `_SLACK` nearest, whose distances are
+    then computed as `_brute_knn` computes them, so the answer is the scan's bit for bit up to
+    that place. Rows at exactly equal distances (duplicated rows are common: an object that did
+    not move) come out of `_brute_knn` in the order its partition leaves them, which only a
+    scan of all rows reproduces: the distances are the scan's, and so are the rows before the
+    tie's place; a caller that uses more of a query's rows asks the scan (`_query`)."""
     n_q = q.shape[0]
     kc = min(k + _SLACK, pts.shape[0])
     cand = tree.query(q, k=kc)[1].reshape(n_q, kc)
@@ -715,10 +734,9 @@ def _tree_knn(q: np.ndarray, pts: np.ndarray, tree: cKDTree, k: int
     rows = np.arange(n_q)[:, None]
     d2, cand = d2[rows, order], cand[rows, order]
     dist, idx = np.sqrt(d2[:, :k]), cand[:, :k]
-    tied = np.flatnonzero(np.any(d2[:, 1:] == d2[:, :-1], axis=1))
-    if tied.size:
-        dist[tied], idx[tied] = _brute_knn(q[tied], pts, k)
-    return dist, idx
+    equal = d2[:, 1:] == d2[:, :-1]
+    tie = np.where(equal.any(axis=1), np.argmax(equal, axis=1), k)
+    return dist, idx, tie
 
 
 def _benchmark() -> None:  # pragma: no cover - manual timing

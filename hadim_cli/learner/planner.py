@@ -495,7 +495,7 @@ class Planner:
         """
         x_cols = aff.model.dx
         # A row where nothing moved shows no place an effect comes from (all rows if none moved).
-        _, _, ctx, y = seen_where(aff.model, self.effect, along=delta)
+        _, _, ctx, y = seen_where(aff.model, self.config.zero_eps, along=delta)
         scale = aff.model.scales().per_column()
         ctx_scale, y_scale = scale[x_cols:x_cols + ctx.shape[1]], scale[x_cols + ctx.shape[1]:]
         free = np.repeat(relations, aff.model.context_dims)
@@ -570,7 +570,7 @@ class Planner:
         test: its (outcome, context) search is led by the outcome. Rows of a model in a
         relation's frame are turned to the bearing of `c`'s relation first (`frames.seen`), as
         the model reads them. `spreads`: `_spreads(aff)`, when the caller has them already."""
-        effect, xs, ctx, _ = seen_where(aff.model, self.effect, at=c)
+        effect, xs, ctx, _ = seen_where(aff.model, self.config.zero_eps, at=c)
         if effect is None or effect.size < self.pc.support_neighbours:
             return np.inf
         scale = aff.model.scales().per_column()[:xs.shape[1] + ctx.shape[1]]

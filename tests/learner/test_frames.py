@@ -5,6 +5,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
+from hadim_cli.learner.competence import split_zero
 from hadim_cli.learner.frames import Frame, FramedModel, relation_frame, seen, seen_where
 from hadim_cli.learner.models import LocalLinearModel
 from hadim_cli.learner.spaces import ACTION, Role, RoleSpace
@@ -176,6 +177,22 @@ def test_both_kinds_of_model_offer_the_model_interface() -> None:
         assert isinstance(fitted(cls, *pushes(np.random.default_rng(0), 20, (0.0, 1.0))), Model)
 
 
+def _where(turn: str) -> dict[str, np.ndarray]:
+    return {"at": np.array([0.3, -0.1, 0.0, 1.0])} if turn == "at" else \
+        {"along": np.array([0.4, 0.3])}
+
+
+def _assert_seen_where_is_seen(model, zero_eps: float, where: dict[str, np.ndarray]) -> None:
+    """`seen_where` gives the rows of `seen` whose outcome is not null, bit for bit."""
+    whole = seen(model, **where)
+    keep = ~split_zero(whole[2], zero_eps)
+    assert 0 < keep.sum() < keep.size
+    rows, *part = seen_where(model, zero_eps, **where)
+    np.testing.assert_array_equal(rows, np.flatnonzero(keep))
+    for got, want in zip(part, whole, strict=True):
+        assert got.tobytes() == np.ascontiguousarray(want[keep]).tobytes()
+
+
 @pytest.mark.parametrize("cls", [FramedModel, LocalLinearModel])
 @pytest.mark.parametrize("turn", ["along", "at", "no frame.y"])
 def test_the_rows_with_an_effect_are_turned_as_all_rows_are(cls, turn) -> None:
@@ -189,17 +206,10 @@ def test_the_rows_with_an_effect_are_turned_as_all_rows_are(cls, turn) -> None:
         model.add(x, c, y)
     else:
         model = fitted(cls, x, c, y)
-    where = {"at": np.array([0.3, -0.1, 0.0, 1.0])} if turn == "at" else \
-        {"along": np.array([0.4, 0.3])}
-    moving = lambda v: np.linalg.norm(v, axis=1) > 1e-9  # noqa: E731
+    where = _where(turn)
+    _assert_seen_where_is_seen(model, 1e-9, where)
     whole = seen(model, **where)
-    keep = moving(whole[2])
-    assert 0 < keep.sum() < keep.size
-    rows, *part = seen_where(model, moving, **where)
-    np.testing.assert_array_equal(rows, np.flatnonzero(keep))
-    for got, want in zip(part, whole, strict=True):
-        assert got.tobytes() == np.ascontiguousarray(want[keep]).tobytes()
-    rows, *part = seen_where(model, lambda v: np.zeros(len(v), dtype=bool), **where)
+    rows, *part = seen_where(model, 1e9, **where)
     assert rows is None
     for got, want in zip(part, whole, strict=True):
         assert got.tobytes() == np.ascontiguousarray(want).tobytes()
@@ -271,3 +281,33 @@ def test_the_learner_config_frames_the_robot_s_motion_models() -> None:
             model = fitter.new_model(ACTION, out, (heading,))
             assert isinstance(model, FramedModel) is body
         assert isinstance(fitter.new_model(ACTION, robot, ()), LocalLinearModel)
+
+
+@pytest.mark.parametrize("turn", ["along", "at"])
+def test_the_kept_norms_and_directions_follow_the_rows_added(turn) -> None:
+    """A framed model keeps each row's outcome norm and directions (what its turns are made
+    of) and extends them as rows come in: asked between adds, it answers as a model built
+    with all the rows at once."""
+    rng = np.random.default_rng(8)
+    batches = [pushes(rng, n, (-np.pi, np.pi)) for n in (200, 7, 1, 40)]
+    model = FramedModel(2, 2, [2, 2], Frame(0, True, True, (1,)))
+    for batch in batches:
+        model.add(*batch)
+        _assert_seen_where_is_seen(model, 1e-9, _where(turn))
+        _assert_seen_where_is_seen(model, 0.02, _where(turn))
+
+
+@pytest.mark.parametrize("turn", ["along", "at"])
+def test_outcomes_at_the_null_threshold_are_measured_turned(turn) -> None:
+    """Outcomes whose norm is the null threshold to the last bits: turned, some fall on the
+    other side of it, and `seen_where` keeps the rows that `seen`'s turned outcomes keep."""
+    rng = np.random.default_rng(9)
+    x, c, y = pushes(rng, 400, (-np.pi, np.pi))
+    eps = 0.01
+    ang = rng.uniform(-np.pi, np.pi, 300)
+    y[:300] = eps * np.c_[np.cos(ang), np.sin(ang)]
+    model = fitted(FramedModel, x, c, y)
+    stored = ~split_zero(model.data()[2], eps)
+    turned = ~split_zero(seen(model, **_where(turn))[2], eps)
+    assert np.any(stored != turned)  # the case this test is about
+    _assert_seen_where_is_seen(model, eps, _where(turn))

@@ -20,18 +20,26 @@ from hadim_cli.learner.models import LocalLinearModel
 @pytest.mark.parametrize("size", [49, 130, 700])
 def test_tree_search_of_a_buffer_is_the_scan_bit_for_bit(dims: int, size: int, order: str
                                                          ) -> None:
-    """Row- or column-major rows (a model's buffer is column-major: einsum then sums each
-    distance's squares in another order), with duplicated rows (exact ties)."""
+    """Up to the first exact tie it reports: row- or column-major rows (a model's buffer is
+    column-major: einsum then sums each distance's squares in another order), with duplicated
+    rows (exact ties)."""
     rng = np.random.default_rng(dims * 1000 + size)
     pts = np.asarray(rng.normal(size=(size, dims)), order=order)
     pts[size // 2:size // 2 + 6] = pts[:6]
     queries = np.concatenate([rng.normal(size=(60, dims)), pts[:20]])  # some exact hits
     tree = cKDTree(pts)
+    ties = []
     for k in (1, 10, 20, size):
-        want = models._brute_knn(queries, pts, k)
-        got = models._tree_knn(queries, pts, tree, k)
-        assert np.array_equal(got[1], want[1])
-        assert np.array_equal(got[0], want[0])
+        want_dist, want_idx = models._brute_knn(queries, pts, k)
+        dist, idx, tie = models._tree_knn(queries, pts, tree, k)
+        assert np.array_equal(dist, want_dist)
+        # the rows before the first exact tie are the scan's; after it, they may not be
+        before = np.arange(k)[None, :] < tie[:, None]
+        assert np.array_equal(idx[before], want_idx[before])
+        differs = np.any(idx != want_idx, axis=1)
+        assert np.all(tie[differs] < k)
+        ties.append(tie < k)
+    assert np.any(ties[0]) and not np.all(ties[0])  # k = 1: both kinds of query were asked
 
 
 def _rows(rng: np.random.Generator, n: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
