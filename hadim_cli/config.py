@@ -179,7 +179,7 @@ class LearnerConfig:
     its wheels say; such rows among free moves bent the local fits (held-out error on free
     moves: 90th percentile 3.8 cm with them, 1.0 cm without, docs/notes.md). Off: every
     action's row."""
-    body_frame: bool = False
+    body_frame: bool = True
     """With `relation_frames`: fit the robot's own motion affordances (primitive action →
     robot position or heading) with the robot's heading as a context in the frame of that
     heading, where a wheel command moves the robot the same way whichever way it faces. Off:
@@ -424,11 +424,12 @@ class PlannerConfig:
     made facing it), and the robot drives there arriving facing it, in one trip. Off: the
     heading needed is the one the robot had before the trip, and the robot turns back to it
     after driving there."""
-    closer_places: bool = False
+    closer_places: bool = True
     """A relation on the bearing of the needed one but shorter (the pusher nearer its object,
     down to contact) counts as the needed place: only the bearing, and being further than
-    needed, take a pusher off its place. Off: any difference of the relation does."""
-    contact_places: bool = False
+    needed, take a pusher off its place. Off: any difference of the relation does (the push
+    that closed a gap read as a pusher off its place, and the next step sent it back)."""
+    contact_places: bool = True
     """With `closer_places`: a trip to a needed relation that reads a gap between the bodies
     drives to contact (plus the contact margin) on that relation's bearing instead, so the
     first action from there pushes. Off (or `closer_places` off): to the needed relation as
@@ -610,9 +611,10 @@ def config_from_dict(values: Mapping[str, Any]) -> Config:
 
 LEGACY_DEFAULTS: dict[str, dict[str, Any]] = {
     "learner": {"surface_relations": False, "relation_frames": False, "context_splits": 1,
-                "p_a_pooled": False, "free_motion": False},
+                "p_a_pooled": False, "free_motion": False, "body_frame": False},
     "planner": {"navigation": False, "steer": False, "hold_relation": False,
-                "pose_places": False, "pursue_line": False},
+                "pose_places": False, "pursue_line": False, "closer_places": False,
+                "contact_places": False},
 }
 """Keys added after runs were first stored, with the value that reproduces what a run stored
 without them did (its defaults then): a stored run restores the learner it trained (the

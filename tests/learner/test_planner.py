@@ -629,7 +629,8 @@ def test_the_place_of_an_action_pusher_is_driven_to_facing_its_heading():
     planner._waypoints = lambda driven, goal, obs, b, mover: [goal]
     planner.value = lambda space, obs, b: (obs_heading.copy() if space == ROBOT_HEADING
                                            else np.zeros(2))
-    planner.reader = SimpleNamespace(offset_now=lambda space, want, *a: want)
+    planner.reader = SimpleNamespace(offset_now=lambda space, want, *a: want,
+                                     relation_offset=None)  # centre to centre
     placed_headings = []
     orig = planner._place
 
