@@ -300,16 +300,24 @@ class LearnerConfig:
     competence within `match_tolerance` (`Adaptation.matches_other_output`); such a match
     explains S, and no new affordance is tried for S at that pick (the paper creates one only
     when nothing matched). Off: only the affordances with output S are matched."""
-    p_a_pooled: bool = False
+    p_a_pooled: bool = True
     """Teach p_A of every affordance with the same output (`target.position`: every
     object-moving affordance) the same examples: the objects any of them moved (positives),
-    those any of them was applied to in vain, and the robot (negatives), one per object and
-    label per learning episode. Whether an object's position can be changed is a fact about
-    the object, seen by whichever affordance acted on it; a fixed object stops the robot or
-    the tool, so its pushes in vain are seldom rows of the pushing or the tool affordance
-        (docs/algorithm.md, p_A). Off (the default): each affordance learns from its own rows
-    only — with the planner of 2026-11-24, on scored less on the tool task (0.63 against 0.67
-    at 4000, 0.47 against 0.58 at 2000, ten seeds)."""
+    those any of them was applied to in vain (or, with `p_a_refusals`, that refused the
+    robot), and the robot (negatives), one per object and label per learning episode. Whether
+    an object's position can be changed is a fact about the object, seen by whichever
+    affordance acted on it; a fixed object stops the robot or the tool, so its pushes in vain
+    are seldom rows of the pushing or the tool affordance (docs/algorithm.md, p_A). Off: each
+    affordance learns from its own rows only."""
+    p_a_refusals: bool = True
+    """With `p_a_pooled`: p_A's negatives for the object-moving affordances are the objects
+    that *refused* the robot — it touched one, its motion model (the most competent
+    controller of `robot.position` from the actions) meant to move at least half its step
+    into the object, the robot moved less than half as far as it meant, and the object did
+    not move in the environment episode — taught after every learning episode, whatever
+    moved in it. They replace the objects an affordance's own model expected to move
+    (`Adaptation._applied_in_vain`), which made pushable objects negatives after grazes and
+    backing away. Off: those (docs/algorithm.md, p_A, for what each measured)."""
 
     def validate(self) -> None:
         for name in ("sigma", "match_tolerance", "context_gain", "interest_epsilon",
@@ -334,6 +342,9 @@ class LearnerConfig:
                self.creation_rows)
         _check(self.salient_beyond >= 0, "learner.salient_beyond", "must be >= 0",
                self.salient_beyond)
+        _check(self.p_a_pooled or not self.p_a_refusals, "learner.p_a_refusals",
+               "needs learner.p_a_pooled = true (refusals are taught to every object-moving "
+               "affordance)", self.p_a_refusals)
         for name in ("zero_eps", "competence_sharpness", "zero_ratio", "reach_tolerance",
                      "relation_offset"):
             value = getattr(self, name)
@@ -611,7 +622,8 @@ def config_from_dict(values: Mapping[str, Any]) -> Config:
 
 LEGACY_DEFAULTS: dict[str, dict[str, Any]] = {
     "learner": {"surface_relations": False, "relation_frames": False, "context_splits": 1,
-                "p_a_pooled": False, "free_motion": False, "body_frame": False},
+                "p_a_pooled": False, "free_motion": False, "body_frame": False,
+                "p_a_refusals": False},
     "planner": {"navigation": False, "steer": False, "hold_relation": False,
                 "pose_places": False, "pursue_line": False, "closer_places": False,
                 "contact_places": False},

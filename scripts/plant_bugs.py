@@ -24,6 +24,7 @@ TRIP = "tests/learner/test_state_round_trip.py"
 MIGRATIONS = "tests/store/test_store_migrations.py"
 PAPER = "tests/learner/test_paper_interest.py"
 ALG2 = "tests/learner/test_paper_adaptation.py"
+REFUSALS = "tests/learner/test_p_a_refusals.py"
 
 
 class Bug(NamedTuple):
@@ -320,6 +321,31 @@ BUGS = (
         "                [self._teach_pooled([a], t, rng) for a in self.h.with_output(space)]",
         "tests/learner/test_p_a_pooled.py::test_pooled_p_a_is_right_on_the_scene_and_on_unseen"
         "_objects"),
+    Bug("p-a-refusals-not-taught", "hadim_cli/learner/adaptation.py",
+        "            refused = self._refused(t)\n", "            refused = Rows.empty()\n",
+        f"{REFUSALS}::test_p_a_from_refusals_is_right_on_the_scene_and_on_unseen_objects"),
+    Bug("p-a-refusal-graze", "hadim_cli/learner/adaptation.py",
+        "(depth > 0.5 * step)", "(depth > -step)",
+        f"{REFUSALS}::test_an_object_that_stops_the_robot_refused_it_a_graze_or_backing_away"
+        "_did_not"),
+    Bug("p-a-refusal-not-stopped", "hadim_cli/learner/adaptation.py",
+        "& (went < 0.5 * step)", "& (went < np.inf)",
+        f"{REFUSALS}::test_a_move_a_young_motion_model_misplaces_is_no_refusal"),
+    Bug("p-a-refusals-only-when-moved", "hadim_cli/learner/adaptation.py",
+        "        if self.config.p_a_refusals and OBJECT_POSITION not in adapted:",
+        "        if False:",
+        f"{REFUSALS}::test_refusals_teach_p_a_in_a_learning_episode_where_nothing_moved"),
+    Bug("p-a-refusal-moved-before", "hadim_cli/learner/adaptation.py",
+        "        still = ~np.isin(rows.target, np.unique(seen.target[changed]))\n"
+        "        return rows.take(np.flatnonzero(still))\n\n    def _blocked",
+        "        still = np.ones(len(rows), dtype=bool)\n"
+        "        return rows.take(np.flatnonzero(still))\n\n    def _blocked",
+        f"{REFUSALS}::test_an_object_that_moved_earlier_in_the_episode_is_no_refusal"),
+    Bug("p-a-refusals-keep-model-negatives", "hadim_cli/learner/adaptation.py",
+        "        if self.config.p_a_refusals and aff.output == OBJECT_POSITION:",
+        "        if False:",
+        f"{REFUSALS}::test_a_pushable_object_is_no_negative_even_where_the_pushing_model"
+        "_expects_a_push"),
     Bug("open-contexts-ignored", "hadim_cli/learner/adaptation.py",
         "every = context_candidates(roles, open_all=self.config.open_contexts)",
         "every = context_candidates(roles)",

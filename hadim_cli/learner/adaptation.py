@@ -7,8 +7,9 @@ removing one context space — and the best is kept when its competence reaches 
 and improves by `context_gain`. Then new affordances are tried for the space with every
 candidate input (A ∪ Ω_controllable) not yet used for it, with no context or the best single
 context (kept only if it gains `context_gain` over none); the best reaching τ_creation joins H.
-p_A of each affordance is trained on the objects that responded (positives) and those it was
-applied to that did not (negatives).
+p_A of the object-moving affordances is taught, pooled, the objects that moved (positives) and
+the robot and the objects that refused it (negatives, `_refused`); with `p_a_refusals` off,
+the objects an affordance was applied to in vain (`_applied_in_vain`).
 
 Two switches give the paper's loop (off by default, docs/algorithm.md for what they measured):
 `paper_picks` picks a space k times with replacement instead of each once; `paper_matching`
@@ -29,6 +30,7 @@ from hadim_cli.learner.spaces import (
     ACTION,
     OPEN_OUTPUT_SPACES,
     OUTPUT_SPACES,
+    Property,
     Role,
     RoleSpace,
     Rows,
@@ -55,6 +57,11 @@ class CreationBackoff:
         wait = min(16, 2 * self.wait.get(key, 1))
         self.wait[key] = wait
         self.next_try[key] = episode + wait
+
+
+OBJECT_POSITION = RoleSpace(Role.TARGET, Property.POSITION)
+ROBOT_POSITION = RoleSpace(Role.ROBOT, Property.POSITION)
+TARGET_ROBOT = RoleSpace(Role.TARGET, Property.POSITION, Role.ROBOT)
 
 
 def required_gain(n_before: int, n_after: int, context_gain: float) -> float:
@@ -111,6 +118,9 @@ class Adaptation:
             if self.config.paper_matching and self._explained_elsewhere(space, t, rng):
                 continue  # the paper creates an affordance only when none matched
             self._try_create(space, iteration, episode, rng)
+        if self.config.p_a_refusals and OBJECT_POSITION not in adapted:
+            # A push into a fixed object moves nothing, yet p_A has something to learn from it.
+            self._teach_pooled(self.h.with_output(OBJECT_POSITION), t, rng)
         if self.config.p_a_blocked_pushes:
             # Driving into a fixed object moves nothing: no space is non-null, no affordance is
             # updated, and yet p_A has something to learn from it.
@@ -304,7 +314,10 @@ class Adaptation:
         no negative of it: within an episode its properties are the same.
         """
         moved = self.fitter.nonzero(sample.y)
-        negative = self._applied_in_vain(aff, sample, moved)
+        if self.config.p_a_refusals and aff.output == OBJECT_POSITION:
+            negative = np.zeros_like(moved)  # the negatives are `_refused`'s
+        else:
+            negative = self._applied_in_vain(aff, sample, moved)
         pick = moved | negative
         rows = sample.rows.take(np.flatnonzero(pick))
         labels = moved[pick]
@@ -316,10 +329,10 @@ class Adaptation:
     def _teach_pooled(self, affs: list[Affordance], t: np.ndarray,
                       rng: np.random.Generator) -> None:
         """With `p_a_pooled`: p_A of every affordance in `affs` (one output) learns the
-        examples of all of them. Whether an object's position can be changed is the object's
-        (docs/algorithm.md, p_A): a fixed object stops the robot, so it is seldom a row of
-        the affordance acting from the robot's position, yet the one acting from the actions
-        sees it refuse to move."""
+        examples of all of them, and with `p_a_refusals` the objects that refused the robot.
+        Whether an object's position can be changed is the object's (docs/algorithm.md, p_A):
+        a fixed object stops the robot, so it is seldom a row of the affordance acting from the
+        robot's position, yet the one acting from the actions sees it refuse to move."""
         affs = [a for a in affs if a.classifier is not None]
         rows, labels = Rows.empty(), np.zeros(0, dtype=bool)
         for aff in affs:
@@ -328,6 +341,10 @@ class Adaptation:
                 continue
             r, y = self._examples(aff, sample, self._blocked_in_vain(aff, t))
             rows, labels = rows.concat(r), np.concatenate([labels, y])
+        if self.config.p_a_refusals and any(a.output == OBJECT_POSITION for a in affs):
+            refused = self._refused(t)
+            rows = rows.concat(refused)
+            labels = np.concatenate([labels, np.zeros(len(refused), dtype=bool)])
         if len(rows) == 0:
             return
         for aff in affs:
@@ -386,6 +403,44 @@ class Adaptation:
         responded = np.unique(rows.target[changed])
         negative[idx[~np.isin(sample.rows.target[idx], responded)]] = True
         return negative
+
+    def _refused(self, t: np.ndarray) -> Rows:
+        """With `p_a_refusals`, the objects that refused the robot at iterations `t`: the robot
+        touched the object before the action, its motion model (the most competent controller
+        of its position from the actions) meant to carry it at least half its step into the
+        object, the robot moved less than half as far as it meant (it was stopped), and the
+        object did not move in the environment episode up to the end of `t`. A fixed object
+        stops the robot, so these rows are outside the pushing affordance's domain; a graze
+        (moving along the object) or backing away is no refusal, whatever a pushing model
+        expects of it, and neither is a move a young motion model (no heading context yet)
+        misplaces: the robot went where it went. Rows bind the target only."""
+        f = self.fitter
+        movers = [a for a in self.h.controllers(ROBOT_POSITION) if a.input is ACTION]
+        if not movers or movers[0].model.n < 3 or t.size == 0:
+            return Rows.empty()
+        rows = f.bindings(OBJECT_POSITION.roles, t)
+        rows = rows.take(np.flatnonzero(f.touching(rows, Role.ROBOT, after=False)))
+        if len(rows) == 0:
+            return rows
+        mover = movers[0]
+        m = f.values(mover.input, mover.output, mover.contexts, rows)
+        meant = mover.model.predict(m.x, m.c if m.c.shape[1] else None)
+        d = f.dataset
+        centre = f.reader.read(TARGET_ROBOT, d.contexts, rows, raw=True)  # target − robot
+        contact = f.reader.contact(TARGET_ROBOT, d.contexts, rows)
+        step = np.linalg.norm(meant, axis=1)
+        depth = contact - np.linalg.norm(centre - meant, axis=1)
+        went = np.linalg.norm(f.reader.read(ROBOT_POSITION, d.outcomes, rows), axis=1)
+        moved = f.nonzero(f.reader.read(OBJECT_POSITION, d.outcomes, rows))
+        into = (step > 2 * self.config.zero_eps) & (depth > 0.5 * step) & (went < 0.5 * step) \
+            & ~moved
+        rows = rows.take(np.flatnonzero(into))
+        if len(rows) == 0:
+            return rows
+        episode = np.arange(d.episode_start(int(rows.t.min())), int(t.max()) + 1, dtype=np.int64)
+        seen, changed = f.changed(OBJECT_POSITION, episode)
+        still = ~np.isin(rows.target, np.unique(seen.target[changed]))
+        return rows.take(np.flatnonzero(still))
 
     def _blocked_in_vain(self, aff: Affordance, t: np.ndarray) -> Rows | None:
         """With `p_a_blocked_pushes`, rows of iterations `t` where an affordance acting from

@@ -403,7 +403,8 @@ def test_goal_babbling_without_an_object_to_bind_is_a_recorded_fallback(monkeypa
 
 # ---------------------------------------------------------------------- p_A labels
 def test_p_a_is_taught_movers_as_positives_the_robot_and_in_vain_pushes_as_negatives():
-    room = Room()
+    """Each affordance's own rule (`p_a_refusals` off): an object its model expected to move."""
+    room = Room(p_a_pooled=False, p_a_refusals=False)
     rng = np.random.default_rng(0)
     room.episode()
     for a in np.linspace(0, 2 * np.pi, 30, endpoint=False):
@@ -497,7 +498,7 @@ def test_an_object_that_stops_the_robot_teaches_p_a_with_blocked_pushes(on):
     robot's displacement) did not change, so the row is outside its domain. With
     `p_a_blocked_pushes`, the robot's motion model says the robot meant to move into it, the
     push model says that would have pushed it, and it becomes a negative of p_A."""
-    room = Room(p_a_blocked_pushes=on)
+    room = Room(p_a_blocked_pushes=on, p_a_pooled=False, p_a_refusals=False)
     rng = np.random.default_rng(0)
     room.episode()
     room.affordance(room.moves(rng, 300), (ROBOT_HEADING,))  # the robot's motion model
@@ -530,7 +531,7 @@ def test_an_object_that_stops_the_robot_teaches_p_a_with_blocked_pushes(on):
 def test_a_blocked_push_in_an_episode_where_nothing_moved_still_teaches_p_a(monkeypatch):
     """Nothing moved in the learning episode (the robot drove into a red object): no output
     space is non-null, no affordance is updated, and p_A still gets its negative."""
-    room = Room(p_a_blocked_pushes=True)
+    room = Room(p_a_blocked_pushes=True, p_a_pooled=False, p_a_refusals=False)
     rng = np.random.default_rng(0)
     room.episode()
     room.affordance(room.moves(rng, 300), (ROBOT_HEADING,))

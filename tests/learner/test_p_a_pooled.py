@@ -57,7 +57,7 @@ def trained_room(pooled: bool, episodes: int = 10) -> Room:
     `episodes` environment episodes of new objects, each pushed: the green ones move, the red
     one stops the robot. Algorithm 2 runs after each."""
     rng = np.random.default_rng(3)
-    room = Room(p_a_pooled=pooled)
+    room = Room(p_a_pooled=pooled, p_a_refusals=False)
     room.episode()
     radii = draw_objects(room, rng)
     start = len(room.dataset)
