@@ -21,6 +21,8 @@ from hadim_cli.pa_probes import UNSEEN, scene_probes, unseen_probes, unseen_size
 from hadim_cli.world.layout import Property
 from hadim_cli.world.placement import shade
 
+pytestmark = pytest.mark.usefixtures("one_thread")
+
 ROBOT_RADIUS = 0.15
 
 
@@ -78,17 +80,6 @@ def trained_room(pooled: bool, episodes: int = 10) -> Room:
                 push(room, green, a, radii[green], moves=True)
         room.adaptation.run(start, len(room.dataset), len(room.dataset), episode, rng)
     return room
-
-
-@pytest.fixture(scope="module", autouse=True)
-def one_thread():
-    """As a `Session` does: on 2 shared cores, torch's thread pool only waits."""
-    import torch
-
-    before = torch.get_num_threads()
-    torch.set_num_threads(1)
-    yield
-    torch.set_num_threads(before)
 
 
 @pytest.fixture(scope="module")

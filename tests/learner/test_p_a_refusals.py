@@ -16,19 +16,10 @@ from handmade import ROBOT_HEADING, ROBOT_POSITION, STEP, TARGET_POSITION, TARGE
 from hadim_cli.config import ConfigError, LearnerConfig, stored_config
 from hadim_cli.learner.spaces import Property, Rows
 
+pytestmark = pytest.mark.usefixtures("one_thread")
+
 ROBOT_RADIUS = 0.15
 FORWARD = np.array([1.0, 1.0])
-
-
-@pytest.fixture(scope="module", autouse=True)
-def one_thread():
-    """As a `Session` does: on 2 shared cores, torch's thread pool only waits."""
-    import torch
-
-    before = torch.get_num_threads()
-    torch.set_num_threads(1)
-    yield
-    torch.set_num_threads(before)
 
 
 def drive(room: Room, obj: str, bearing: float, heading: float, action=FORWARD, *,
