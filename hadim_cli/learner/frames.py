@@ -78,21 +78,19 @@ def relation_frame(inp: RoleSpace, out: RoleSpace, contexts: Sequence[RoleSpace]
     → robot position or heading) with the robot's heading as a context is framed by that
     heading: a wheel command moves the robot the same way in its own frame whatever way it
     faces (up to its speed before the command, which no observation holds)."""
-    if body and inp is ACTION and out.role is Role.ROBOT and _is_vector(out):
-        heading = [i for i, c in enumerate(contexts)
-                   if c.role is Role.ROBOT and c.prop is Property.HEADING
-                   and c.relative_to is None]
-        if heading:
-            vectors = tuple(i for i, c in enumerate(contexts)
-                            if i != heading[0] and (c.relative_to is not None
-                                                    or c.prop is Property.HEADING))
-            return Frame(heading[0], False, True, vectors)
+    if not _is_vector(out):
+        return None
+    heading = [i for i, c in enumerate(contexts)
+               if c.role is Role.ROBOT and c.prop is Property.HEADING and c.relative_to is None]
     relations = [i for i, c in enumerate(contexts)
                  if c.relative_to is not None and c.role is out.role]
-    if not relations or not _is_vector(out):
+    if body and inp is ACTION and out.role is Role.ROBOT and heading:
+        axis = heading[0]
+    elif relations:
+        direct = [i for i in relations if contexts[i].relative_to is inp.role]
+        axis = (direct or relations)[0]
+    else:
         return None
-    direct = [i for i in relations if contexts[i].relative_to is inp.role]
-    axis = (direct or relations)[0]
     vectors = tuple(i for i, c in enumerate(contexts)
                     if i != axis and (c.relative_to is not None or c.prop is Property.HEADING))
     return Frame(axis, _is_vector(inp), _is_vector(out), vectors)

@@ -96,15 +96,26 @@ def _normalise_heading(space: RoleSpace, value: np.ndarray) -> np.ndarray:
     return value
 
 
+def _slices(aff: Affordance) -> Iterator[tuple[int, slice]]:
+    """(index, columns) of each context space of `aff` in its context vectors."""
+    offset = 0
+    for i, dim in enumerate(aff.model.context_dims):
+        yield i, slice(offset, offset + dim)
+        offset += dim
+
+
 def _context_part(aff: Affordance, c: np.ndarray, space: RoleSpace) -> np.ndarray | None:
     """The columns of the context vector `c` of `aff` that hold `space` (None: not a context
     of `aff`)."""
-    offset = 0
-    for context, dim in zip(aff.contexts, aff.model.context_dims, strict=True):
-        if context == space:
-            return c[offset:offset + dim]
-        offset += dim
+    for i, sl in _slices(aff):
+        if aff.contexts[i] == space:
+            return c[sl]
     return None
+
+
+def _at_length(v: np.ndarray, length: float) -> np.ndarray:
+    """The vector `v` (not null) scaled to `length`, on its own bearing."""
+    return v * (length / float(np.linalg.norm(v)))
 
 
 def _unit_heading(h: np.ndarray | None) -> np.ndarray | None:
@@ -268,7 +279,8 @@ class Planner:
                                        actuator, budget, depth)
                     if done > 0:
                         return done
-                used = self._reach_context(aff, b, needed, actuator, budget, depth, then=then)
+                used = self._reach_context(aff, b, self._at_contact(aff, needed, relations),
+                                           actuator, budget, depth, then=then)
                 if used != 0:
                     return used
         elif progress < 0.3 and aff.contexts and depth < self.pc.max_depth:
@@ -313,10 +325,8 @@ class Planner:
         mover = self._entity(aff.input, b)
         if mover <= 0:
             return None
-        offset = 0
-        for space, dim in zip(aff.contexts, aff.model.context_dims, strict=True):
-            want = needed[offset:offset + dim]
-            offset += dim
+        for i, sl in _slices(aff):
+            space, want = aff.contexts[i], needed[sl]
             if space.role is aff.output.role and space.relative_to is aff.input.role:
                 offset_now = self.reader.offset_now(space, want, obs, b.target, b.tool)
                 position = self.reader.entity_position(obs, mover)
@@ -346,12 +356,10 @@ class Planner:
         steering steps in 5), as a disc pushes along the line of centres."""
         if aff.input.prop is not Property.POSITION or aff.input.relative_to is not None:
             return None
-        cols, offset = [], 0
-        for space, dim in zip(aff.contexts, aff.model.context_dims, strict=True):
-            if (space.prop is Property.POSITION and space.role is aff.output.role
-                    and space.relative_to is aff.input.role):
-                cols.append(np.arange(offset, offset + dim))
-            offset += dim
+        cols = [np.arange(sl.start, sl.stop) for i, sl in _slices(aff)
+                if aff.contexts[i].prop is Property.POSITION
+                and aff.contexts[i].role is aff.output.role
+                and aff.contexts[i].relative_to is aff.input.role]
         length = float(np.linalg.norm(then))
         if not cols or length < 1e-9:
             return None
@@ -533,13 +541,12 @@ class Planner:
         from bearings that cancelled: their fit asked for 0.087, a tool 21 cm inside the
         target, and each tool placement shoved the target instead (0.93 at 2000, 0.16 at
         4000)."""
-        out, start = needed.copy(), 0
-        for space, dim in zip(aff.contexts, aff.model.context_dims, strict=True):
-            sl = slice(start, start + dim)
-            start += dim
+        if not rows.size:
+            return needed
+        out = needed.copy()
+        for i, sl in _slices(aff):
+            space = aff.contexts[i]
             if space.relative_to is None or space.prop is not Property.POSITION:
-                continue
-            if not rows.size:
                 continue
             lengths = np.linalg.norm(rows[:, sl], axis=1)
             if np.linalg.norm(needed[sl]) < lengths.min() - lengths.std():
@@ -615,34 +622,28 @@ class Planner:
         pusher 9 cm off its place, and the next step sent it back there (a trip per push)."""
         if not self.pc.closer_places:
             return needed
-        out, offset = needed.copy(), 0
-        for i, dim in enumerate(aff.model.context_dims):
-            sl = slice(offset, offset + dim)
-            offset += dim
-            if not relations[i]:
-                continue
-            now, want = float(np.linalg.norm(c[sl])), float(np.linalg.norm(needed[sl]))
-            if now < want:
-                out[sl] = needed[sl] * (now / want)
+        out = needed.copy()
+        for i, sl in _slices(aff):
+            now = float(np.linalg.norm(c[sl]))
+            if relations[i] and now < float(np.linalg.norm(needed[sl])):
+                out[sl] = _at_length(needed[sl], now)
         return out
 
-    def _at_contact(self, aff: Affordance, needed: np.ndarray) -> np.ndarray:
-        """`needed` with each relation the planner drives that reads a gap between the bodies
-        brought to contact (plus `CONTACT_MARGIN`) on its own bearing (`contact_places`): the
-        place a trip drives to. From a gap, the push's first action only closed it."""
+    def _at_contact(self, aff: Affordance, needed: np.ndarray,
+                    relations: np.ndarray) -> np.ndarray:
+        """`needed` with each relation of `relations` (those the planner drives) that reads a
+        gap between the bodies brought to contact (plus `CONTACT_MARGIN`) on its own bearing
+        (`contact_places`): the place a trip drives to. From a gap, the push's first action
+        only closed it."""
         if not (self.pc.contact_places and self.pc.closer_places):
             return needed
         offset = self.reader.relation_offset
         if offset is None:
             return needed
-        relations = self.reachable_relations(aff)
-        out, start = needed.copy(), 0
-        for i, dim in enumerate(aff.model.context_dims):
-            sl = slice(start, start + dim)
-            start += dim
-            length = float(np.linalg.norm(needed[sl]))
-            if relations[i] and length > offset + CONTACT_MARGIN:
-                out[sl] = needed[sl] * ((offset + CONTACT_MARGIN) / length)
+        out = needed.copy()
+        for i, sl in _slices(aff):
+            if relations[i] and float(np.linalg.norm(needed[sl])) > offset + CONTACT_MARGIN:
+                out[sl] = _at_length(needed[sl], offset + CONTACT_MARGIN)
         return out
 
     @staticmethod
@@ -656,10 +657,8 @@ class Planner:
     def _gaps(aff: Affordance, spreads: list[float], c: np.ndarray, others: np.ndarray,
               spaces: np.ndarray | None = None) -> np.ndarray:
         """`_gap` of `c` to each row of `others`."""
-        gap, offset = np.zeros(others.shape[0]), 0
-        for i, dim in enumerate(aff.model.context_dims):
-            sl = slice(offset, offset + dim)
-            offset += dim
+        gap = np.zeros(others.shape[0])
+        for i, sl in _slices(aff):
             if spaces is not None and not spaces[i]:
                 continue
             gap = np.maximum(gap, np.linalg.norm(others[:, sl] - c[sl], axis=1) / spreads[i])
@@ -797,7 +796,6 @@ class Planner:
         used = 0
         spreads = self._spreads(aff)
         heading = self._needed_heading(aff, needed)
-        needed = self._at_contact(aff, needed)
         for i, space, driven, goal, sub_b, controllers in self._context_plans(
                 aff, b, needed, actuator.obs):
             current = self.value(driven, actuator.obs, sub_b)

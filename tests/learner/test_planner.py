@@ -20,7 +20,9 @@ RADIUS = RoleSpace(Role.TARGET, Property.RADIUS)
 
 
 def _planner() -> Planner:
-    return Planner(Hierarchy(), reader=None, config=load_config().learner)  # reader unused
+    # Relations read centre to centre (no contact places); the reader is otherwise unused.
+    return Planner(Hierarchy(), reader=SimpleNamespace(relation_offset=None),
+                   config=load_config().learner)
 
 
 def _push_like_model(rng: np.random.Generator, outliers: int, n: int = 300) -> LocalLinearModel:
@@ -753,25 +755,35 @@ def test_a_trip_drives_to_contact_on_the_needed_bearing():
 
     planner = Planner(Hierarchy(), SimpleNamespace(relation_offset=0.3),
                       load_config().learner)
-    aff = SimpleNamespace(id=3, model=SimpleNamespace(context_dims=(2, 1)),
-                          contexts=(TARGET_ROBOT, RADIUS))
+    aff = SimpleNamespace(id=3, model=SimpleNamespace(n=100, context_dims=(2, 1)),
+                          contexts=(TARGET_ROBOT, RADIUS), input=ROBOT_POSITION,
+                          output=TARGET_POSITION)
+    answer = SimpleNamespace(x=np.array([0.05, 0.0]), y_predicted=np.zeros(2))
+    aff.model.infer = lambda delta, c=None: answer
+    planner.context = lambda *args: np.array([0.6, 0.0, 0.9])  # far off: a trip
     planner.reachable_relations = lambda a: np.array([True, False])
     planner._spreads = lambda a: [0.1, 0.1]
-    planner._needed_heading = lambda *args: None
+    planner.support_gap = lambda *args: 0.0
+    planner.step_size = lambda a: 0.1
     seen = []
-    planner._context_plans = lambda a, b, needed, obs: seen.append(needed.copy()) or iter(())
-    actuator = SimpleNamespace(obs=np.zeros(4), exhausted=False)
+    planner._reach_context = lambda a, b, needed, *args, **kw: seen.append(needed.copy()) or 3
+
+    def trip_to(needed: np.ndarray) -> np.ndarray:
+        planner.needed_context = lambda *args: needed
+        planner._one_step(aff, Binding(target=1), np.array([0.05, 0.0]),
+                          SimpleNamespace(obs=np.zeros(4)), 80, 0, spare_trips=False)
+        return seen[-1]
+
     needed = np.array([0.0, 0.42, 0.9])
     for contact, closer, want in (
             (False, True, needed),
             (True, False, needed),
             (True, True, np.array([0.0, 0.3 + CONTACT_MARGIN, 0.9]))):
-        planner.pc = replace(planner.pc, contact_places=contact, closer_places=closer)
-        planner._reach_context(aff, Binding(target=1), needed, actuator, 80, 0)
-        assert np.allclose(seen[-1], want)
+        planner.pc = replace(planner.pc, contact_places=contact, closer_places=closer,
+                             steer=False, hold_relation=False)
+        assert np.allclose(trip_to(needed), want)
     near = np.array([0.0, 0.31, 0.9])
-    planner._reach_context(aff, Binding(target=1), near, actuator, 80, 0)
-    assert np.allclose(seen[-1], near)
+    assert np.allclose(trip_to(near), near)
 
 
 def test_a_needed_relation_inside_the_object_gives_way_to_the_rows_own():
