@@ -175,15 +175,28 @@ def render_timeline(console: Console, events: list) -> None:
 
 
 def render_eval(console: Console, result: TaskResult, iteration: int) -> None:
-    table = Table(title=f"{result.task} at iteration {iteration}: score {result.score:.3f}")
-    for col in ("#", "target", "start", "final", "error", "actions", "note"):
+    """A row per point: where it went, the actions it used, the trips the planner took to a
+    place and the actions that moved no object; the caption sums them over the task."""
+    points = result.points
+    counted = [p for p in points if p.robot_only is not None]
+    actions = sum(p.actions for p in counted)
+    caption = None
+    if counted and actions:
+        caption = (f"{sum(p.trips for p in counted) / len(counted):.1f} trips per point; "
+                   f"{100 * sum(p.robot_only for p in counted) / actions:.0f} % of the "
+                   f"{actions} actions moved no object")
+    table = Table(title=f"{result.task} at iteration {iteration}: score {result.score:.3f}",
+                  caption=caption)
+    for col in ("#", "target", "start", "final", "error", "actions", "trips", "robot only",
+                "note"):
         table.add_column(col)
-    for i, p in enumerate(result.points):
+    for i, p in enumerate(points):
         def fmt(v):
             return f"({v[0]:+.2f}, {v[1]:+.2f})"
 
         note = "robot touched target" if p.contact_failed else (
             "no affordance" if p.affordance_id < 0 else f"A{p.affordance_id}")
         table.add_row(str(i), fmt(p.target), fmt(p.start), fmt(p.final), f"{p.error:.3f}",
-                      str(p.actions), note)
+                      str(p.actions), str(p.trips),
+                      "–" if p.robot_only is None else str(p.robot_only), note)
     console.print(table)

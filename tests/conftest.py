@@ -10,6 +10,8 @@ from pathlib import Path
 import pytest
 from typer.testing import CliRunner
 
+import hadim_cli  # noqa: F401  (before numpy loads: it pins the numeric kernels)
+
 sys.path.append(str(Path(__file__).resolve().parent))  # for postgres_server
 import postgres_server  # noqa: E402
 

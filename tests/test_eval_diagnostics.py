@@ -176,3 +176,29 @@ def test_an_animation_is_written_and_the_same_run_draws_the_same_frames(runner, 
     assert out.exit_code == 0, out.stderr
     assert out.stdout.strip().splitlines()[-1] == f"wrote {tmp_path / 'm.gif'}"
     assert (tmp_path / "m.gif").stat().st_size > 0
+
+
+def test_an_action_counts_as_robot_only_unless_it_moves_an_object():
+    """`robot_only`: the actions that moved no object (turns, drives, blocked pushes); a push
+    that moves any object, the task's or not, is not one."""
+    from hadim_cli.config import WorldConfig
+    from hadim_cli.evaluation.runner import EvalActuator
+    from hadim_cli.world.scene import ObjectSpec, Scene
+    from hadim_cli.world.world import World
+
+    cfg = WorldConfig()
+    green = (0.2, 0.8, 0.2)
+    far = [ObjectSpec(-1.5 + 0.4 * i, 1.6, 0.1, 0.2, (0.8, 0.2, 0.2), False)
+           for i in range(cfg.n_green + cfg.n_red - 1)]
+    world = World(cfg)
+    obs = world.reset(scene=Scene((ObjectSpec(0.27, 0.0, 0.1, 0.2, green, True), *far)))
+    actuator = EvalActuator(world, obs, 10, None)
+    actuator.act(np.array([-1.0, 1.0]))   # a turn on the spot
+    actuator.act(np.array([1.0, -1.0]))   # back
+    assert (actuator.used, actuator.robot_only) == (2, 2)
+    for _ in range(3):                    # into obj1, which moves
+        actuator.act(np.array([1.0, 1.0]))
+    assert actuator.robot_only == 2
+    for _ in range(2):                    # backing off: obj1 slides to rest, then stays
+        actuator.act(np.array([-1.0, -1.0]))
+    assert (actuator.used, actuator.robot_only) == (7, 3)

@@ -13,6 +13,16 @@ from hadim_cli.config import load_config
 app = typer.Typer(help="Measure how fast the parts of hadim run.", no_args_is_help=True)
 
 
+def _echo(payload: dict | list) -> None:
+    """Print a benchmark's JSON; an object gets the numeric kernels it ran on
+    (hadim_cli/numerics.py): figures from machines whose kernels differ are not comparable."""
+    from hadim_cli.numerics import kernels
+
+    if isinstance(payload, dict):
+        payload = {**payload, "kernels": kernels()}
+    typer.echo(json.dumps(payload))
+
+
 @app.command("world")
 def world(
     actions: Annotated[int, typer.Option("--actions", "-n", min=1,
@@ -28,7 +38,7 @@ def world(
     cfg = load_config(config, set_ or [])
     result = bench_world(cfg.world, actions, seed)
     if json_:
-        typer.echo(json.dumps(result.to_dict()))
+        _echo(result.to_dict())
         return
     from rich.console import Console
     from rich.table import Table
@@ -67,7 +77,7 @@ def train(
     cfg = load_config(config, set_ or [])
     result = bench_train(cfg, iterations, seed, block, with_store=store)
     if json_:
-        typer.echo(json.dumps(result.to_dict()))
+        _echo(result.to_dict())
         return
     from rich.console import Console
     from rich.table import Table
@@ -119,7 +129,7 @@ def eval_(
     tasks = tuple(task) if task else session.config.evaluation.tasks
     result = bench_eval(session, run, tasks)
     if json_:
-        typer.echo(json.dumps(result.to_dict()))
+        _echo(result.to_dict())
         return
     from rich.console import Console
     from rich.table import Table
@@ -152,7 +162,7 @@ def env(
     results = [bench_env(task, reward, "discrete", steps, seed)
                for task in TASKS for reward in ("sparse", "guided")]
     if json_:
-        typer.echo(json.dumps([r.to_dict() for r in results]))
+        _echo([r.to_dict() for r in results])
         return
     from rich.console import Console
     from rich.table import Table
@@ -202,7 +212,7 @@ def baseline(
               "iterations_per_s": iterations / wall, "cpu_seconds": cpu,
               "iterations_per_cpu_s": iterations / cpu}
     if json_:
-        typer.echo(json.dumps(result))
+        _echo(result)
         return
     typer.echo(f"{algo} {reward} {task} ({actions}, {n_envs} env): {iterations} iterations "
                f"in {wall:.1f} s, {iterations / wall:,.0f} iterations/s; "

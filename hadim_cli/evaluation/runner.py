@@ -38,6 +38,9 @@ class PointResult:
     line_deviation: float = 0.0
     """Largest distance (m) of the driven entity from the straight line start → point: how
     far off the line it was pushed (or drove)."""
+    robot_only: int | None = None
+    """Actions that moved no object by `MOVED` (the robot driving, turning or blocked): the
+    budget spent on getting somewhere rather than on pushing (None: not counted)."""
     pursuits: dict[str, int] = field(default_factory=dict)
     """Actions by what the planner pursued when it chose them, below the task's own goal:
     its chain of pursuits joined by " / ", outermost first (the goal's own affordance when
@@ -83,6 +86,10 @@ class TaskResult:
         return {"task": self.task, "score": self.score, "points": [asdict(p) for p in self.points]}
 
 
+MOVED = 1e-3
+"""An object moved by an action when its centre moved this far (m)."""
+
+
 class EvalActuator:
     """Steps the evaluation world within a budget, watching robot–target contacts."""
 
@@ -104,6 +111,10 @@ class EvalActuator:
         self.path = 0.0
         self.line: tuple[slice, np.ndarray, np.ndarray] | None = None
         self.deviation = 0.0
+        layout = world.layout
+        self._objects = [layout.space(name, Property.POSITION).slice
+                         for name in layout.entities[1:]]
+        self.robot_only = 0
 
     def follow(self, entity: int, start: np.ndarray, point: np.ndarray) -> None:
         """Measure `entity`'s largest distance from the segment start → point."""
@@ -121,8 +132,11 @@ class EvalActuator:
 
     def act(self, action: np.ndarray) -> np.ndarray:
         before = np.asarray(self.world.robot_pose()[:2])
+        objects = [self._obs[sl] for sl in self._objects]
         self._obs = self.world.step(action)
         self.used += 1
+        self.robot_only += all(np.linalg.norm(self._obs[sl] - o) < MOVED
+                               for sl, o in zip(self._objects, objects, strict=True))
         self.path += float(np.linalg.norm(np.asarray(self.world.robot_pose()[:2]) - before))
         if self.line is not None:
             where, a, b = self.line
@@ -220,6 +234,7 @@ def evaluate(learner: Learner, world_config: WorldConfig, task: Task,
                                    tuple(map(float, final)), error, actuator.used,
                                    -1 if aff is None else aff.id, actuator.touched,
                                    actuator.path, trips, actuator.deviation,
+                                   actuator.robot_only,
                                    dict(sorted(actuator.pursuits.items(),
                                                key=lambda kv: (-kv[1], kv[0])))))
         if record:
