@@ -70,6 +70,11 @@ class WorldConfig:
     """Largest torque the wheels can exert when turning (N·m)."""
     action_duration: float = 0.5
     """Simulated time one primitive action is held (s)."""
+    settle_time: float = 0.1
+    """After the hold, the wheels stop and the world runs this long (s) before it is observed:
+    the robot, and what it pushed, come to rest, so every action starts from standstill. 0:
+    the next action starts at the speed the last one left, which no observation holds (the
+    robot's motion model then errs by up to ~9 cm after a reversal; docs/world.md)."""
     physics_dt: float = 1.0 / 60.0
     """Fixed physics step (s)."""
     n_green: int = 6
@@ -111,7 +116,7 @@ class WorldConfig:
         ):
             value = getattr(self, name)
             _check(value > 0, f"world.{name}", "must be > 0", value)
-        for name in ("ground_friction", "start_clearance", "object_gap"):
+        for name in ("ground_friction", "start_clearance", "object_gap", "settle_time"):
             value = getattr(self, name)
             _check(value >= 0, f"world.{name}", "must be >= 0", value)
         _check(self.object_radius_max >= self.object_radius_min, "world.object_radius_max",
@@ -621,6 +626,7 @@ def config_from_dict(values: Mapping[str, Any]) -> Config:
 
 
 LEGACY_DEFAULTS: dict[str, dict[str, Any]] = {
+    "world": {"settle_time": 0.0},
     "learner": {"surface_relations": False, "relation_frames": False, "context_splits": 1,
                 "p_a_pooled": False, "free_motion": False, "body_frame": False,
                 "p_a_refusals": False},

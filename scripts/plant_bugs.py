@@ -404,6 +404,17 @@ BUGS = (
         'sa.Column("task", sa.String(128), nullable=False)',
         'sa.Column("task", sa.String(128), nullable=True)',
         f"{MIGRATIONS}::test_revision_1_is_the_schema_of_a_store_written_by_schema_1"),
+    Bug("settle-ignored", "hadim_cli/world/world.py", "        if self._settle:\n",
+        "        if False:\n",
+        "tests/world/test_world_physics.py::test_every_action_starts_from_standstill_whatever_"
+        "came_before"),
+    Bug("settle-legacy-forgotten", "hadim_cli/config.py", '    "world": {"settle_time": 0.0},\n',
+        "", "tests/test_long_sessions.py::test_a_schema_1_store_opens_and_resumes_exactly "
+        "tests/baselines/test_combinations.py::test_a_baseline_stored_before_a_world_key_"
+        "existed_keeps_the_world_it_trained_in"),
+    Bug("place-tolerance-ignored-in-cost", "hadim_cli/learner/navigation.py",
+        "        direct = np.where(inside, 0.0, direct)\n", "",
+        "tests/learner/test_pose_reaching.py"),
     Bug("robot-only-counts-pushes", "hadim_cli/evaluation/runner.py",
         "np.linalg.norm(self._obs[sl] - o) < MOVED", "np.linalg.norm(self._obs[sl] - o) < 1.0",
         "tests/test_eval_diagnostics.py::test_an_action_counts_as_robot_only_unless_it_moves_"

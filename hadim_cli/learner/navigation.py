@@ -197,7 +197,8 @@ class Navigator:
                       speed: float, turn: float) -> np.ndarray:
         """Estimated primitive actions from poses (position, heading), each (N, 2), to `place`:
         turn to face the way, drive, and with a heading, the last `approach_distance` straight
-        along it (the cheaper of going there first or heading straight for the place)."""
+        along it (the cheaper of going there first or heading straight for the place). A pose
+        within the place's tolerance only turns to its heading."""
         position, heading = np.atleast_2d(position), np.atleast_2d(heading)
 
         def leg(frm: np.ndarray, to: np.ndarray, facing: np.ndarray
@@ -210,6 +211,11 @@ class Navigator:
             return cost, arrive
 
         direct, arrive = leg(position, place.position[None], heading)
+        # Within the place's tolerance the position is reached: what is left is the heading
+        # (a pose 2 cm off, charged a turn to face that 2 cm and back, never turned on).
+        inside = np.linalg.norm(position - place.position, axis=1) <= place.tolerance
+        direct = np.where(inside, 0.0, direct)
+        arrive = np.where(inside[:, None], heading, arrive)
         if place.heading is None:
             return direct
         want = np.broadcast_to(place.heading, position.shape)

@@ -15,7 +15,13 @@ from dataclasses import asdict, dataclass
 import numpy as np
 
 from hadim_cli.config import WorldConfig
-from hadim_cli.world.physics import Physics, build_physics, n_substeps, wheel_command
+from hadim_cli.world.physics import (
+    Physics,
+    build_physics,
+    n_settle_substeps,
+    n_substeps,
+    wheel_command,
+)
 from hadim_cli.world.placement import draw_scene
 from hadim_cli.world.world import World, wrap_angle
 
@@ -64,7 +70,7 @@ class WorldBench:
 
 def _raw_actions(physics: Physics, config: WorldConfig, actions: list[list[float]]) -> float:
     robot, control, space = physics.robot, physics.control, physics.space
-    dt, substeps = config.physics_dt, n_substeps(config)
+    dt, substeps, settle = config.physics_dt, n_substeps(config), n_settle_substeps(config)
     cos, sin = math.cos, math.sin
     start = time.perf_counter()
     for left, right in actions:
@@ -74,6 +80,10 @@ def _raw_actions(physics: Physics, config: WorldConfig, actions: list[list[float
             angle = robot.angle
             control.velocity = (speed * cos(angle), speed * sin(angle))
             space.step(dt)
+        if settle:
+            control.velocity, control.angular_velocity = (0.0, 0.0), 0.0
+            for _ in range(settle):
+                space.step(dt)
     return time.perf_counter() - start
 
 

@@ -37,6 +37,12 @@ def n_substeps(config: WorldConfig) -> int:
     return max(1, round(config.action_duration / config.physics_dt))
 
 
+def n_settle_substeps(config: WorldConfig) -> int:
+    """Physics steps with the wheels stopped after each action (settle_time / physics_dt,
+    rounded)."""
+    return round(config.settle_time / config.physics_dt)
+
+
 def wheel_command(config: WorldConfig, left: float, right: float) -> tuple[float, float]:
     """(forward speed m/s, angular speed rad/s) of a differential drive for wheel intensities."""
     speed = config.max_wheel_speed

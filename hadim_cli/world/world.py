@@ -15,7 +15,13 @@ from hadim_cli.config import WorldConfig
 from hadim_cli.errors import ActionError, HadimError
 from hadim_cli.world.layout import ROBOT, LayoutBounds, ObservationLayout, Property, Shape
 from hadim_cli.world.lidar import Lidar
-from hadim_cli.world.physics import Physics, build_physics, n_substeps, wheel_command
+from hadim_cli.world.physics import (
+    Physics,
+    build_physics,
+    n_settle_substeps,
+    n_substeps,
+    wheel_command,
+)
 from hadim_cli.world.placement import ROBOT_COLOR, draw_scene
 from hadim_cli.world.scene import Scene
 
@@ -70,6 +76,7 @@ class World:
         self._lidar = Lidar(config.lidar_rays, config.lidar_range,
                             config.room_width / 2, config.room_height / 2)
         self._substeps = n_substeps(config)
+        self._settle = n_settle_substeps(config)
         self._dt = config.physics_dt
         n = len(self.layout.objects)
         self._obs = np.zeros(self.layout.size)
@@ -162,7 +169,8 @@ class World:
         return self._physics
 
     def step(self, action: object) -> np.ndarray:
-        """Hold the wheel intensities (left, right) ∈ [-1, 1]² for one action; observe."""
+        """Hold the wheel intensities (left, right) ∈ [-1, 1]² for one action, then stop the
+        wheels for `settle_time`; observe."""
         physics = self._require_physics()
         left, right = check_action(action)
         speed, omega = wheel_command(self.config, left, right)
@@ -174,6 +182,10 @@ class World:
             angle = robot.angle
             control.velocity = (speed * cos(angle), speed * sin(angle))
             space.step(dt)
+        if self._settle:
+            control.velocity, control.angular_velocity = (0.0, 0.0), 0.0
+            for _ in range(self._settle):
+                space.step(dt)
         self._steps += 1
         self.last_contacts = frozenset(physics.contacts.touched)
         return self.observe()

@@ -64,3 +64,15 @@ def test_every_combination_learns_stores_resumes_and_evaluates(tmp_path, index, 
     result = session.evaluate(two)
     assert 0.0 <= result.score <= 1.0
     assert [p.target for p in result.points] == list(two.points)
+
+
+def test_a_baseline_stored_before_a_world_key_existed_keeps_the_world_it_trained_in():
+    """A stored baseline's world lacks the keys added after it (e.g. `settle_time`): it reads
+    them as they were then (`LEGACY_DEFAULTS`), not at today's defaults."""
+    from hadim_cli.baselines.agents import read_config
+
+    cfg = make_config("dqn", "push-object", "sparse", "discrete", 100, 0, WorldConfig())
+    assert cfg.world_config == WorldConfig()
+    stored = cfg.to_dict()
+    del stored["baseline"]["world"]["settle_time"]
+    assert read_config(stored).world_config.settle_time == 0.0

@@ -71,7 +71,7 @@ def test_heavy_green_moves_less_than_light_but_moves() -> None:
     light = pushed_distance(config.object_radius_min, config.object_height_min)
     heavy = pushed_distance(config.object_radius_max, config.object_height_max)
     assert heavy < light - 0.03
-    assert heavy > 0.2  # the heaviest default object is still pushable
+    assert heavy > 0.15  # the heaviest default object is still pushable (0.197 m in 3 actions)
 
 
 def test_every_default_green_object_is_pushable_by_the_drive() -> None:
@@ -120,3 +120,33 @@ def test_drive_into_wall_stays_inside() -> None:
     for _ in range(10):
         world.step((1.0, 1.0))
     assert world.robot_pose()[0] <= 2.0 - 0.15 + 0.005
+
+
+@pytest.mark.parametrize("before", [(1.0, 1.0), (-1.0, -1.0), (-1.0, 1.0), (0.3, -0.8)])
+def test_every_action_starts_from_standstill_whatever_came_before(before) -> None:
+    """`settle_time`: the wheels stop after each action's hold until everything is at rest, so
+    a command moves the robot the same way whatever the previous one was (the learner sees no
+    speed); without it, a command after its reverse moves the robot ~3 cm less."""
+    def move_after(previous, **changes) -> np.ndarray:
+        world = world_with(**changes)
+        world.step(previous)
+        x0, y0, h0 = world.robot_pose()
+        world.step((1.0, 1.0))
+        x1, y1, h1 = world.robot_pose()
+        c, s = math.cos(h0), math.sin(h0)
+        return np.array([c * (x1 - x0) + s * (y1 - y0), -s * (x1 - x0) + c * (y1 - y0), h1 - h0])
+
+    assert WorldConfig().settle_time > 0
+    np.testing.assert_allclose(move_after(before), [0.15, 0.0, 0.0], atol=1e-4)
+    unsettled = move_after(before, settle_time=0.0)
+    if before == (-1.0, -1.0):
+        assert unsettled[0] < 0.125
+
+
+def test_a_pushed_object_is_at_rest_when_the_action_is_observed() -> None:
+    world = world_with(green(0.4, 0.0, radius=0.08, height=0.1), red(-1.5, -1.5))
+    for _ in range(3):
+        world.step((1.0, 1.0))
+    x = position(world, "obj1")[0]
+    world.step((-1.0, 1.0))  # a turn on the spot: nothing pushes the object now
+    assert position(world, "obj1")[0] == pytest.approx(x, abs=1e-6)
