@@ -51,17 +51,14 @@ def _has_avx2(cpuinfo: Path = Path("/proc/cpuinfo")) -> bool:
     return False
 
 
-def pin_kernels(environ: dict[str, str] | None = None, avx2: bool | None = None) -> dict[str, str]:
-    """Set the variables of `PINNED` the user has not set (in `environ`, default `os.environ`)
-    when the CPU has AVX2 and numpy is not loaded yet; returns those set."""
-    env = os.environ if environ is None else environ
-    if env.get(NATIVE_ENV, "") not in ("", "0") or "numpy" in sys.modules:
-        return {}
-    if not (_has_avx2() if avx2 is None else avx2):
-        return {}
-    chosen = {k: v for k, v in PINNED.items() if k not in env}
-    env.update(chosen)
-    return chosen
+def pin_kernels() -> None:
+    """Set the variables of `PINNED` the user has not set, when the CPU has AVX2 and numpy is
+    not loaded yet (and `NATIVE_ENV` does not ask for the machine's own kernels)."""
+    if os.environ.get(NATIVE_ENV, "") not in ("", "0") or "numpy" in sys.modules:
+        return
+    if _has_avx2():
+        for key, value in PINNED.items():
+            os.environ.setdefault(key, value)
 
 
 def kernels() -> dict[str, object]:

@@ -416,12 +416,13 @@ BUGS = (
         "        direct = np.where(inside, 0.0, direct)\n", "",
         "tests/learner/test_pose_reaching.py"),
     Bug("robot-only-counts-pushes", "hadim_cli/evaluation/runner.py",
-        "np.linalg.norm(self._obs[sl] - o) < MOVED", "np.linalg.norm(self._obs[sl] - o) < 1.0",
+        "- objects, axis=1)\n                                       < MOVED))",
+        "- objects, axis=1)\n                                       < 1.0))",
         "tests/test_eval_diagnostics.py::test_an_action_counts_as_robot_only_unless_it_moves_"
         "an_object"),
     Bug("kernels-not-pinned", "hadim_cli/numerics.py",
-        "    chosen = {k: v for k, v in PINNED.items() if k not in env}",
-        "    chosen: dict[str, str] = {}",
+        "            os.environ.setdefault(key, value)",
+        "            pass",
         "tests/test_numerics.py::test_importing_hadim_first_pins_every_library_to_avx2_kernels"),
 )
 

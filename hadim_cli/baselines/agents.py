@@ -29,7 +29,7 @@ from hadim_cli.baselines.qlearning import QLearningParams, TabularQ
 from hadim_cli.baselines.rewards import Reward
 from hadim_cli.baselines.state import global_rngs, join, set_global_rngs, split
 from hadim_cli.baselines.tasks import TASKS
-from hadim_cli.config import LEGACY_DEFAULTS, WorldConfig
+from hadim_cli.config import WorldConfig, stored_config
 from hadim_cli.errors import HadimError
 
 CHUNK_MULTIPLE = 20
@@ -91,7 +91,7 @@ class BaselineConfig:
         if not self.world:
             return WorldConfig()
         # A run stored before a world key existed keeps the world it trained in.
-        return WorldConfig(**{**LEGACY_DEFAULTS["world"], **self.world})
+        return stored_config({"world": self.world}).world
 
 
 def refusal(algo: Algorithm, reward: Reward, actions: Actions) -> str | None:

@@ -111,9 +111,7 @@ class EvalActuator:
         self.path = 0.0
         self.line: tuple[slice, np.ndarray, np.ndarray] | None = None
         self.deviation = 0.0
-        layout = world.layout
-        self._objects = [layout.space(name, Property.POSITION).slice
-                         for name in layout.entities[1:]]
+        self._objects = world.layout.object_columns(Property.POSITION)
         self.robot_only = 0
 
     def follow(self, entity: int, start: np.ndarray, point: np.ndarray) -> None:
@@ -132,11 +130,11 @@ class EvalActuator:
 
     def act(self, action: np.ndarray) -> np.ndarray:
         before = np.asarray(self.world.robot_pose()[:2])
-        objects = [self._obs[sl] for sl in self._objects]
+        objects = self._obs[self._objects]
         self._obs = self.world.step(action)
         self.used += 1
-        self.robot_only += all(np.linalg.norm(self._obs[sl] - o) < MOVED
-                               for sl, o in zip(self._objects, objects, strict=True))
+        self.robot_only += bool(np.all(np.linalg.norm(self._obs[self._objects] - objects, axis=1)
+                                       < MOVED))
         self.path += float(np.linalg.norm(np.asarray(self.world.robot_pose()[:2]) - before))
         if self.line is not None:
             where, a, b = self.line

@@ -99,7 +99,7 @@ class PointOutcome:
     trips: int
     line_deviation: float
     contact_failed: bool
-    robot_only: int = 0
+    robot_only: int
     """Actions that moved no object (`EvalActuator.robot_only`)."""
 
 

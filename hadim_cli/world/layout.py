@@ -151,6 +151,13 @@ class ObservationLayout:
     def has(self, entity: str, prop: Property) -> bool:
         return (entity, Property(prop)) in self._index
 
+    def object_columns(self, prop: Property) -> np.ndarray:
+        """(objects, dim) indices of `prop` of every object: `obs[cols]` reads them all."""
+        dim = dict(_props_of(False, 0))[Property(prop)]
+        starts = [self.space(o, prop).start for o in self.objects]
+        return (np.asarray(starts, dtype=np.intp)[:, None] + np.arange(dim, dtype=np.intp)
+                ).reshape(-1, dim)
+
     def get(self, obs: np.ndarray, entity: str, prop: Property) -> np.ndarray:
         """The values of one space in one observation (or the rows of a batch)."""
         return obs[..., self.space(entity, prop).slice]

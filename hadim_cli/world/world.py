@@ -93,10 +93,8 @@ class World:
         self._robot_pos = lay.space(ROBOT, Property.POSITION).slice
         self._robot_heading = lay.space(ROBOT, Property.HEADING).slice
         self._robot_lidar = lay.space(ROBOT, Property.LIDAR).slice
-        self._obj_pos = np.array([np.arange(2) + lay.space(o, Property.POSITION).start
-                                  for o in lay.objects], dtype=np.intp).reshape(-1, 2)
-        self._obj_rel = np.array([np.arange(2) + lay.space(o, Property.RELATIVE).start
-                                  for o in lay.objects], dtype=np.intp).reshape(-1, 2)
+        self._obj_pos = lay.object_columns(Property.POSITION)
+        self._obj_rel = lay.object_columns(Property.RELATIVE)
 
     # ------------------------------------------------------------------ episode
 
