@@ -305,6 +305,13 @@ class LearnerConfig:
     competence within `match_tolerance` (`Adaptation.matches_other_output`); such a match
     explains S, and no new affordance is tried for S at that pick (the paper creates one only
     when nothing matched). Off: only the affordances with output S are matched."""
+    paper_match_adds: bool = False
+    """With `paper_matching`: the rest of Algorithm 2's body for an affordance of another
+    output, as the paper writes it — every affordance of H is tried (not the first match
+    only); one that matches takes S's data in (rows read in S's space, `Rows.borrowed`); one
+    that does not is given k' random context candidates (k' = their number) and takes the
+    first with which it holds the data at competence ≥ τ_modification, with the data
+    (`Adaptation._borrow`). Off: a match only stands for creation, nothing is added."""
     p_a_pooled: bool = True
     """Teach p_A of every affordance with the same output (`target.position`: every
     object-moving affordance) the same examples: the objects any of them moved (positives),
@@ -350,6 +357,9 @@ class LearnerConfig:
         _check(self.p_a_pooled or not self.p_a_refusals, "learner.p_a_refusals",
                "needs learner.p_a_pooled = true (refusals are taught to every object-moving "
                "affordance)", self.p_a_refusals)
+        _check(self.paper_matching or not self.paper_match_adds, "learner.paper_match_adds",
+               "needs learner.paper_matching = true (it adds the data a match with another "
+               "output found)", self.paper_match_adds)
         for name in ("zero_eps", "competence_sharpness", "zero_ratio", "reach_tolerance",
                      "relation_offset"):
             value = getattr(self, name)

@@ -14,7 +14,8 @@ the objects an affordance was applied to in vain (`_applied_in_vain`).
 Two switches give the paper's loop (off by default, docs/algorithm.md for what they measured):
 `paper_picks` picks a space k times with replacement instead of each once; `paper_matching`
 also matches the picked space's data against the affordances of other outputs, and a match
-there stands for creation (`matches_other_output`).
+there stands for creation (`matches_other_output`); `paper_match_adds` adds the data to each
+affordance of another output that matches, or is made to match by a context (`_borrow`).
 """
 
 from __future__ import annotations
@@ -34,6 +35,7 @@ from hadim_cli.learner.spaces import (
     Role,
     RoleSpace,
     Rows,
+    borrowed_space,
     context_candidates,
 )
 
@@ -115,7 +117,8 @@ class Adaptation:
                 self._teach_pooled(self.h.with_output(space), t, rng)
             for aff in self.h.with_output(space):
                 self._update(aff, t, iteration, rng)
-            if self.config.paper_matching and self._explained_elsewhere(space, t, rng):
+            if self.config.paper_matching and self._explained_elsewhere(space, t, iteration,
+                                                                        rng):
                 continue  # the paper creates an affordance only when none matched
             self._try_create(space, iteration, episode, rng)
         if self.config.p_a_refusals and OBJECT_POSITION not in adapted:
@@ -137,29 +140,30 @@ class Adaptation:
             self._train_classifier(aff, none, rng, blocked)
 
     # ------------------------------------------------------------------ existing affordances
-    def _explained_elsewhere(self, space: RoleSpace, t: np.ndarray,
+    def _explained_elsewhere(self, space: RoleSpace, t: np.ndarray, iteration: int,
                              rng: np.random.Generator) -> bool:
         """With `paper_matching`: whether the data of `space` at iterations `t` match an
-        affordance of another output (`matches_other_output`), in H's order, first match."""
-        return any(self.matches_other_output(aff, space, t, rng)
-                   for aff in self.h if aff.output != space)
+        affordance of another output (`matches_other_output`), in H's order. Without
+        `paper_match_adds`, the first match settles it; with it, every affordance is tried, as
+        the paper's loop over H does, and each that matches (or is made to match by a
+        context, `_borrow`) takes the data in."""
+        if not self.config.paper_match_adds:
+            return any(self.matches_other_output(aff, space, t, rng)
+                       for aff in self.h if aff.output != space)
+        matched = False
+        for aff in list(self.h):
+            if aff.output != space:
+                matched |= self._borrow(aff, space, t, iteration, rng)
+        return matched
 
-    def matches_other_output(self, aff: Affordance, space: RoleSpace, t: np.ndarray,
-                             rng: np.random.Generator) -> bool:
-        """The paper's Matches(A, a, ω_S) for an affordance whose output is not S: A's model,
-        given the rows of iterations `t` in its domain (its input changed; every row for the
-        action input) with S's outcome in place of its own — for S an object's position, the
-        rows of the objects that moved in `t` (the paper's spaces are an object's; one that
-        never moved is no picked space) — all non-null ones and a bounded share of null ones
-        (`Fitter.select_rows`), keeps its held-out competence within
-        `match_tolerance`. Only an output of the same property can (a position for a
-        position): another kind of quantity is not A's to predict. The data are not added
-        to A (its rows are rows of its own output) and no context is searched for them."""
+    def _other_output_rows(self, aff: Affordance, space: RoleSpace, t: np.ndarray,
+                           rng: np.random.Generator) -> Rows | None:
+        """The rows of iterations `t` whose data of `space` an affordance `aff` of another
+        output is matched against (see `matches_other_output`); None when there are none."""
         f = self.fitter
         out = aff.output
-        if out.prop is not space.prop or out.relative_to != space.relative_to \
-                or aff.model.n < 3:
-            return False
+        if borrowed_space(out) != space or aff.model.n < 3:
+            return None  # (a position for a position: nothing else is another output's)
         sample = f.values(aff.input, space, aff.contexts, f.bindings(aff.roles | space.roles, t))
         keep = np.ones(len(sample.rows), dtype=bool)
         if aff.input is not ACTION:
@@ -170,12 +174,81 @@ class Adaptation:
             keep &= np.isin(sample.rows.target, seen.target[changed])
         sample = sample.take(np.flatnonzero(keep))
         if not f.nonzero(sample.y).any():
-            return False
-        s = f.values(aff.input, space, aff.contexts, f.select_rows(sample, rng))
-        model = f.new_model(aff.input, out, aff.contexts)
-        model.add(*aff.model.data())
+            return None
+        return f.select_rows(sample, rng)
+
+    def _competence_with(self, aff: Affordance, contexts: tuple[RoleSpace, ...], rows: Rows,
+                         rng: np.random.Generator) -> float:
+        """Held-out competence of `aff` with `contexts`, fitted on its rows and on `rows` of
+        another output (read as borrowed: in that output's space)."""
+        f = self.fitter
+        model = f.new_model(aff.input, aff.output, contexts)
+        if contexts == aff.contexts:
+            model.add(*aff.model.data())
+        else:
+            model = f.fit(aff.input, aff.output, contexts, aff.rows)
+        s = f.values(aff.input, aff.output, contexts, rows.lending())
         model.add(s.x, s.c, s.y)
-        return f.competence(model, rng) >= aff.competence - self.config.match_tolerance
+        return f.competence(model, rng)
+
+    def matches_other_output(self, aff: Affordance, space: RoleSpace, t: np.ndarray,
+                             rng: np.random.Generator) -> bool:
+        """The paper's Matches(A, a, ω_S) for an affordance whose output is not S: A's model,
+        given the rows of iterations `t` in its domain (its input changed; every row for the
+        action input) with S's outcome in place of its own — for S an object's position, the
+        rows of the objects that moved in `t` (the paper's spaces are an object's; one that
+        never moved is no picked space) — all non-null ones and a bounded share of null ones
+        (`Fitter.select_rows`), keeps its held-out competence within
+        `match_tolerance`. Only an output of the same property can (a position for a
+        position): another kind of quantity is not A's to predict. Nothing is added to A
+        here (`_borrow` does, with `paper_match_adds`)."""
+        rows = self._other_output_rows(aff, space, t, rng)
+        if rows is None:
+            return False
+        return (self._competence_with(aff, aff.contexts, rows, rng)
+                >= aff.competence - self.config.match_tolerance)
+
+    def _borrow(self, aff: Affordance, space: RoleSpace, t: np.ndarray, iteration: int,
+                rng: np.random.Generator) -> bool:
+        """Algorithm 2's body for an affordance `aff` of another output than `space`, as the
+        paper writes it (`paper_match_adds`): when the data match, they are added to `aff`
+        (as borrowed rows, `Rows.borrowed`); when not, k' context spaces are picked at random
+        among `aff`'s candidates (k' = their number, with replacement) and the first with
+        which `aff` holds the data at competence ≥ τ_modification is added to its contexts,
+        the data with it. Returns whether `aff` matched."""
+        rows = self._other_output_rows(aff, space, t, rng)
+        if rows is None:
+            return False
+        if (self._competence_with(aff, aff.contexts, rows, rng)
+                >= aff.competence - self.config.match_tolerance):
+            self._take_in(aff, aff.contexts, rows, iteration, rng)
+            return True
+        every = context_candidates(aff.input.roles | aff.output.roles,
+                                   open_all=self.config.open_contexts)
+        candidates = [c for c in every if c not in aff.contexts]
+        for _ in range(len(candidates)):
+            c = candidates[int(rng.integers(len(candidates)))]
+            contexts = (*aff.contexts, c)
+            if self._competence_with(aff, contexts, rows, rng) >= self.config.tau_modification:
+                self._take_in(aff, contexts, rows, iteration, rng)
+                self.h.record(aff, EventKind.CONTEXT_ADDED, iteration, added=c.name,
+                              borrowed=space.name)
+                return True
+        return False
+
+    def _take_in(self, aff: Affordance, contexts: tuple[RoleSpace, ...], rows: Rows,
+                 iteration: int, rng: np.random.Generator) -> None:
+        """Add `rows` of another output to `aff` (borrowed) with `contexts`, and refit."""
+        f = self.fitter
+        aff.rows = aff.rows.concat(rows.lending())
+        if contexts == aff.contexts:
+            s = f.values(aff.input, aff.output, contexts, rows.lending())
+            aff.model.add(s.x, s.c, s.y)
+        else:
+            aff.contexts = contexts
+            aff.model = f.fit(aff.input, aff.output, contexts, aff.rows)
+        aff.competence = f.competence(aff.model, rng)
+        aff.history.append((iteration, aff.competence))
 
     def _accept_mask(self, aff: Affordance, sample: Sample) -> np.ndarray | None:
         if aff.classifier is None or aff.classifier.n_positive == 0:

@@ -21,7 +21,15 @@ from hadim_cli.learner.dataset import Dataset
 from hadim_cli.learner.frames import FramedModel, relation_frame
 from hadim_cli.learner.interest import InterestMap, Progress
 from hadim_cli.learner.models import LocalLinearModel, Model
-from hadim_cli.learner.spaces import ACTION, Role, RoleSpace, Rows, SpaceReader, space_dim
+from hadim_cli.learner.spaces import (
+    ACTION,
+    Role,
+    RoleSpace,
+    Rows,
+    SpaceReader,
+    borrowed_space,
+    space_dim,
+)
 from hadim_cli.world.layout import ROBOT, Property
 
 CONTACT_MARGIN = 0.02
@@ -154,6 +162,14 @@ class Fitter:
         x = self.reader.read(inp, d.outcomes, rows, d.actions)
         c = self.reader.read_many(contexts, d.contexts, rows)
         y = self.reader.read(out, d.outcomes, rows)
+        lent = rows.lent()
+        if lent.any():
+            other = borrowed_space(out)
+            if other is None:
+                raise ValueError(f"rows borrowed by an affordance of {out.name}, "
+                                 "which can take in no other output's data")
+            idx = np.flatnonzero(lent)
+            y[idx] = self.reader.read(other, d.outcomes, rows.take(idx))
         return Sample(rows, x, c, y)
 
     def candidate_rows(self, inp: RoleSpace, out: RoleSpace, t: np.ndarray) -> Sample:

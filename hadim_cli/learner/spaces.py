@@ -126,11 +126,15 @@ class Rows:
     """Rows of an affordance's data: iteration indices into D and the binding of each row.
 
     `target` and `tool` hold entity indices of the layout (0 is the robot, -1 unbound).
+    `borrowed` marks rows whose outcome is read in `borrowed_space` of the affordance's output
+    instead of the output itself: data of another output that matched the affordance and were
+    added to it (`learner.paper_match_adds`, the paper's Algorithm 2); None: no row is.
     """
 
     t: np.ndarray
     target: np.ndarray
     tool: np.ndarray
+    borrowed: np.ndarray | None = None
 
     @classmethod
     def empty(cls) -> Rows:
@@ -140,12 +144,40 @@ class Rows:
     def __len__(self) -> int:
         return int(self.t.shape[0])
 
+    def lent(self) -> np.ndarray:
+        """Mask of the borrowed rows."""
+        if self.borrowed is None:
+            return np.zeros(len(self), dtype=bool)
+        return self.borrowed
+
     def concat(self, other: Rows) -> Rows:
+        borrowed = None
+        if self.borrowed is not None or other.borrowed is not None:
+            borrowed = np.concatenate([self.lent(), other.lent()])
         return Rows(np.concatenate([self.t, other.t]), np.concatenate([self.target, other.target]),
-                    np.concatenate([self.tool, other.tool]))
+                    np.concatenate([self.tool, other.tool]), borrowed)
 
     def take(self, idx: np.ndarray) -> Rows:
-        return Rows(self.t[idx], self.target[idx], self.tool[idx])
+        borrowed = None if self.borrowed is None else self.borrowed[idx]
+        return Rows(self.t[idx], self.target[idx], self.tool[idx], borrowed)
+
+    def lending(self) -> Rows:
+        """These rows, every one marked borrowed."""
+        return Rows(self.t, self.target, self.tool, np.ones(len(self), dtype=bool))
+
+
+def borrowed_space(output: RoleSpace) -> RoleSpace | None:
+    """The space whose data an affordance of `output` can take in (`Rows.borrowed`): the
+    same property of the other entity — the robot's position for an object's, an object's
+    for the robot's. None for any other output: a heading or the LIDAR is no other
+    output's quantity (`Adaptation.matches_other_output` matches only the same property)."""
+    if output.prop is not Property.POSITION or output.relative_to is not None:
+        return None
+    if output.role is Role.ROBOT:
+        return RoleSpace(Role.TARGET, Property.POSITION)
+    if output.role is Role.TARGET:
+        return RoleSpace(Role.ROBOT, Property.POSITION)
+    return None
 
 
 class SpaceReader:

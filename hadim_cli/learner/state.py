@@ -73,6 +73,8 @@ def affordance_state(aff: Affordance) -> tuple[dict[str, Any], dict[str, np.ndar
     history = np.array(aff.history, dtype=np.float64).reshape(-1, 2)
     arrays = {f"{p}.rows.t": aff.rows.t, f"{p}.rows.target": aff.rows.target,
               f"{p}.rows.tool": aff.rows.tool, f"{p}.history": history}
+    if aff.rows.borrowed is not None:
+        arrays[f"{p}.rows.borrowed"] = aff.rows.borrowed.astype(np.int8)
     model = {k: v for k, v in aff.model.state().items() if k not in _MODEL_ROWS}
     arrays.update(_prefixed(f"{p}.model", model))
     arrays.update(_prefixed(f"{p}.interest", _in_time_order(interest_arrays)))
@@ -106,8 +108,10 @@ def _restore_affordance(learner: Learner, meta: dict[str, Any],
     p = f"aff{meta['id']}"
     inp, out = parse_space(meta["input"]), parse_space(meta["output"])
     contexts = tuple(parse_space(c) for c in meta["contexts"])
+    borrowed = arrays.get(f"{p}.rows.borrowed")
     rows = Rows(arrays[f"{p}.rows.t"].astype(np.int64), arrays[f"{p}.rows.target"].astype(
-        np.int64), arrays[f"{p}.rows.tool"].astype(np.int64))
+        np.int64), arrays[f"{p}.rows.tool"].astype(np.int64),
+        None if borrowed is None else borrowed.astype(bool))
     if len(rows) and int(rows.t.max()) >= len(learner.dataset):
         raise ValueError(f"affordance {meta['id']} has rows beyond D")
     model_state = _strip(f"{p}.model", arrays)

@@ -149,3 +149,123 @@ def test_the_options_reach_the_learner_from_the_command_line_and_are_stored(tmp_
     del old["learner"]["paper_picks"], old["learner"]["paper_matching"]
     legacy = stored_config(old).learner
     assert (legacy.paper_picks, legacy.paper_matching) == (False, False)
+
+
+# ---------------------------------------------------------------------- (c) the data added
+def _adds(**overrides) -> tuple[Room, np.random.Generator, Affordance]:
+    room = Room(paper_matching=True, paper_match_adds=True, **overrides)
+    rng = np.random.default_rng(0)
+    drive = room.affordance(room.moves(rng, 200), (ROBOT_HEADING,))
+    room.episode()
+    return room, rng, drive
+
+
+def test_with_adds_a_match_takes_the_other_outputs_data_in_as_borrowed_rows():
+    """`paper_match_adds`: the drive that matches a carried object's moves takes them in —
+    rows bound to the object, marked borrowed, whose outcome in the model is the object's
+    displacement (not the robot's, though here they are the same: the jitter below is not)."""
+    room, rng, drive = _adds()
+    carried = _carry(room, rng, 40)
+    assert room.adaptation._explained_elsewhere(TARGET_POSITION, carried, len(room.dataset), rng)
+    lent = drive.rows.lent()
+    assert lent.sum() == drive.model.n - 200 > 0 and not lent[:200].any()
+    assert set(drive.rows.target[lent].tolist()) == {1}
+    s = room.fitter.values(drive.input, TARGET_POSITION, drive.contexts, drive.rows.take(
+        np.flatnonzero(lent)))
+    np.testing.assert_allclose(drive.model.data()[2][200:], s.y, rtol=0, atol=1e-12)
+    # Refitted from its rows (a context change, a checkpoint), the model reads them the same.
+    again = room.fitter.fit(drive.input, drive.output, drive.contexts, drive.rows)
+    np.testing.assert_array_equal(again.data()[2], drive.model.data()[2])
+
+
+def test_a_borrowed_row_reads_the_other_outputs_outcome():
+    """A row marked borrowed reads the object's displacement in an affordance of the robot's
+    position, where the same row unmarked reads the robot's."""
+    room, rng, drive = _adds()
+    jitter = _carry(room, rng, 5, jitter=True)
+    rows = room.fitter.bindings(TARGET_POSITION.roles, jitter)
+    rows = rows.take(np.flatnonzero(rows.target == 1))
+    own = room.fitter.values(drive.input, drive.output, drive.contexts, rows).y
+    lent = room.fitter.values(drive.input, drive.output, drive.contexts, rows.lending()).y
+    obj = room.fitter.values(drive.input, TARGET_POSITION, drive.contexts, rows).y
+    np.testing.assert_array_equal(lent, obj)
+    assert not np.allclose(own, obj)
+
+
+@pytest.mark.parametrize("tau", [0.0, 1.0])
+def test_without_a_match_a_context_is_searched_k_prime_times(tau):
+    """The paper's else-branch: a drive the data do not match (made so by a competence it
+    cannot keep) tries random context candidates and takes the first with which it holds them
+    at τ_modification — with the data, recorded as a context added; at an unreachable
+    τ_modification it keeps neither."""
+    room, rng, drive = _adds(tau_modification=tau)
+    drive.competence = 2.0  # no data keep that: the match fails
+    contexts, n, events = drive.contexts, drive.model.n, len(room.hierarchy.events)
+    carried = _carry(room, rng, 40)
+    matched = room.adaptation._borrow(drive, TARGET_POSITION, carried, len(room.dataset), rng)
+    assert matched == (tau == 0.0)
+    if matched:
+        assert len(drive.contexts) == len(contexts) + 1 and drive.model.n > n
+        event = room.hierarchy.events[-1]
+        assert event.kind.value == "context_added"
+        assert event.detail["borrowed"] == TARGET_POSITION.name
+    else:
+        assert (drive.contexts, drive.model.n, len(room.hierarchy.events)) == (contexts, n,
+                                                                               events)
+        assert drive.rows.borrowed is None
+
+
+def test_without_adds_a_match_adds_nothing():
+    """`paper_matching` alone: the match stands for creation, the drive is unchanged."""
+    room, rng, drive = _drive()
+    carried = _carry(room, rng, 40)
+    assert room.adaptation._explained_elsewhere(TARGET_POSITION, carried, len(room.dataset), rng)
+    assert drive.model.n == 200 and drive.rows.borrowed is None
+
+
+def test_adds_need_paper_matching():
+    """`--set learner.paper_match_adds=true` alone is refused with one line."""
+    from hadim_cli.config import load_config
+    from hadim_cli.errors import ConfigError
+
+    with pytest.raises(ConfigError, match="paper_match_adds.*needs learner.paper_matching"):
+        load_config(overrides=["learner.paper_match_adds=true"])
+    assert load_config(overrides=["learner.paper_match_adds=true",
+                                  "learner.paper_matching=true"]).learner.paper_match_adds
+
+
+def test_with_adds_every_matching_affordance_takes_the_data_in():
+    """The paper's loop runs over every affordance of H: two drives that both explain the
+    carried object's moves both take them in (not the first match only)."""
+    room, rng, drive = _adds()
+    plain = room.affordance(room.moves(rng, 200), ())
+    room.episode()
+    carried = _carry(room, rng, 40)
+    assert room.adaptation._explained_elsewhere(TARGET_POSITION, carried, len(room.dataset), rng)
+    assert drive.rows.lent().sum() > 0 and plain.rows.lent().sum() > 0
+
+
+def test_the_paper_literal_config_turns_every_paper_switch_on_and_trains(tmp_path):
+    """`configs/paper-literal.toml`: every switch that gives the paper's own rule is on (a
+    switch added later and forgotten there fails this), and a short run trains with it,
+    borrowed rows and all, through the command line."""
+    from typer.testing import CliRunner
+
+    from hadim_cli.app import app
+    from hadim_cli.config import LearnerConfig, configs_dir, load_config
+    from hadim_cli.runs import restore_session
+    from store.api import Store
+
+    path = configs_dir() / "paper-literal.toml"
+    learner = load_config(path).learner
+    switches = {name for name in LearnerConfig.__dataclass_fields__
+                if name.startswith(("paper_", "open_"))}
+    assert switches and all(getattr(learner, name) for name in switches)
+    assert not learner.absorb_mismatch
+    store = tmp_path / "s.sqlite"
+    result = CliRunner().invoke(app, ["train", "--iterations", "200", "--name", "r",
+                                      "--eval-every", "0", "-c", str(path),
+                                      "--store", str(store)])
+    assert result.exit_code == 0, (result.stderr, result.exception)
+    with Store.open(store, create=False) as st:
+        assert restore_session(st, st.get_run("r")).learner.config == learner

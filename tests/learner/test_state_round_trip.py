@@ -98,6 +98,9 @@ def rich_learner() -> Room:
     room.episode()
     t = room.moves(rng, 300)
     mover = room.affordance(t, (ROBOT_HEADING,), rng=rng)
+    # Rows of an object's moves taken in by the drive (`learner.paper_match_adds`).
+    mover.rows = mover.rows.concat(Rows(t[:10], np.full(10, 1), np.full(10, -1)).lending())
+    mover.model = room.fitter.fit(mover.input, mover.output, mover.contexts, mover.rows)
     gone = room.affordance(t[:50], (), out=ROBOT_HEADING, rng=rng)
     room.hierarchy.delete(gone, len(room.dataset))
     pusher = room.affordance(t[:20], (TARGET_ROBOT,), inp=ROBOT_POSITION, out=TARGET_POSITION,
