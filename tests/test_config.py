@@ -82,6 +82,21 @@ def test_a_stored_run_without_a_newer_key_keeps_the_behaviour_it_was_trained_wit
     assert stored_config(Config().to_dict()) == Config()
 
 
+def test_a_run_stored_before_the_papers_rules_were_the_default_keeps_its_own():
+    """`open_contexts` and `absorb_mismatch` became the paper's (on, off) on 2026-11-25: a
+    stored config lacking them restores the rules it was trained with (closed, absorbing);
+    one holding them keeps what it holds."""
+    values = Config().to_dict()
+    assert (values["learner"]["open_contexts"], values["learner"]["absorb_mismatch"]) == (
+        True, False)
+    stored = stored_config(values).learner
+    assert (stored.open_contexts, stored.absorb_mismatch) == (True, False)
+    for key in ("open_contexts", "absorb_mismatch"):
+        del values["learner"][key]
+    legacy = stored_config(values).learner
+    assert (legacy.open_contexts, legacy.absorb_mismatch) == (False, True)
+
+
 def test_missing_or_broken_file(tmp_path):
     with pytest.raises(ConfigError, match="not found"):
         load_config(tmp_path / "absent.toml")

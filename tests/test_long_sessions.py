@@ -176,8 +176,12 @@ def test_a_schema_1_store_opens_and_resumes_exactly(runner, tmp_path):
 _REWRITTEN = (".classifier.", ".interest.node_", ".interest.goal_region", ".model.")
 
 
-def test_a_learner_checkpoint_grows_only_at_its_end():
-    cfg = load_config(None, ["world.episode_length=50", "learner.interest_max_goals=4"])
+@pytest.mark.parametrize("paper_interest", [False, True])
+def test_a_learner_checkpoint_grows_only_at_its_end(paper_interest):
+    """Also with the paper's interest maps, which record several goals of one iteration:
+    listed by leaf or by iteration alone, a split reordered them."""
+    cfg = load_config(None, ["world.episode_length=50", "learner.interest_max_goals=4",
+                             f"learner.paper_interest={str(paper_interest).lower()}"])
     session = Session(cfg, SEED)
     previous: dict[str, np.ndarray] = {}
     extended = set()

@@ -194,6 +194,9 @@ class _Leaf:
     goals: list[np.ndarray] = field(default_factory=list)
     competences: list[float] = field(default_factory=list)
     iterations: list[int] = field(default_factory=list)
+    sequence: list[int] = field(default_factory=list)
+    """Each goal's place in the order the map recorded them (saved states list goals in
+    that order, so a checkpoint of the map only grows at its end)."""
     interest: float = 0.0
     next_split_at: int = 0
     """Do not try to split before holding more goals than this (raised after a failed try)."""
@@ -287,6 +290,7 @@ class InterestMap:
         leaf.goals.append(g)
         leaf.competences.append(min(max(c, 0.0), 1.0))
         leaf.iterations.append(int(iteration))
+        leaf.sequence.append(self._n_goals)
         self._n_goals += 1
         self._refresh(leaf)
         if len(leaf.goals) > max(self.max_goals_per_region, leaf.next_split_at):
@@ -333,7 +337,7 @@ class InterestMap:
             self._append_node(node, low, high)
             idx = np.flatnonzero(mask)
             child = _Leaf([leaf.goals[i] for i in idx], [leaf.competences[i] for i in idx],
-                          [leaf.iterations[i] for i in idx])
+                          [leaf.iterations[i] for i in idx], [leaf.sequence[i] for i in idx])
             self._refresh(child)
             self._leaves[rid] = child
             ids.append(rid)
@@ -389,17 +393,28 @@ class InterestMap:
                 "measure": self.measure.value}
 
     def state(self) -> tuple[dict[str, Any], dict[str, np.ndarray]]:
-        """(JSON-serialisable parameters, arrays) from which `from_state` rebuilds the map."""
+        """(JSON-serialisable parameters, arrays) from which `from_state` rebuilds the map.
+        Goals are listed in the order they were recorded, whatever leaf holds them now: a
+        new goal lands at the end of the arrays and a split moves none, so a store that
+        keeps only what a checkpoint adds writes only the new goals (one learning episode
+        of the paper's maps records several goals of one iteration, and an order by leaf or
+        by iteration alone changed at every split)."""
         meta = {"format": FORMAT, **self.params()}
-        goals, comps, iters, region = [], [], [], []
+        goals, comps, iters, region, seq = [], [], [], [], []
         split_at = np.zeros(len(self._low), dtype=np.int64)
         for rid in self._leaf_ids:
             leaf = self._leaves[rid]
             goals.extend(leaf.goals)
             comps.extend(leaf.competences)
             iters.extend(leaf.iterations)
+            seq.extend(leaf.sequence)
             region.extend([rid] * len(leaf.goals))
             split_at[rid] = leaf.next_split_at
+        order = np.argsort(np.array(seq, dtype=np.int64), kind="stable")
+        goals = [goals[i] for i in order]
+        comps = [comps[i] for i in order]
+        iters = [iters[i] for i in order]
+        region = [region[i] for i in order]
         arrays = {
             "node_low": np.array(self._low, dtype=np.float64),
             "node_high": np.array(self._high, dtype=np.float64),
@@ -452,11 +467,12 @@ class InterestMap:
         iters, region = a["iterations"], a["goal_region"]
         if not (len(goals) == len(comps) == len(iters) == len(region)):
             raise ValueError("goal arrays differ in length")
-        for g, c, it, rid in zip(goals, comps, iters, region, strict=True):
+        for i, (g, c, it, rid) in enumerate(zip(goals, comps, iters, region, strict=True)):
             leaf = self._leaves[int(rid)]
             leaf.goals.append(np.array(g, dtype=np.float64))
             leaf.competences.append(float(c))
             leaf.iterations.append(int(it))
+            leaf.sequence.append(i)
         for leaf in self._leaves.values():
             self._refresh(leaf)
         self._n_goals = int(len(goals))

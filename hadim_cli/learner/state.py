@@ -4,7 +4,7 @@ D is not part of it: the store holds D episode by episode and restores it first.
 models' rows: an affordance's rows of D (`aff<id>.rows.*`) and its spaces give them again
 (`Fitter.values`), bit for bit, so a model is saved as its parameters and index sizes and
 rebuilt from D at restore. Everything that grows with the run is an array or a list that only
-grows at its end (rows, competence history, interest goals in time order, events), which the
+grows at its end (rows, competence history, interest goals in the order recorded, events), which the
 store writes as deltas (store/deltas.py). Format 1 (models with their rows, history in JSON)
 still restores.
 """
@@ -50,17 +50,6 @@ def event_from_json(d: dict[str, Any]) -> Event:
                  dict(d.get("detail", {})))
 
 
-def _in_time_order(interest: dict[str, np.ndarray]) -> dict[str, np.ndarray]:
-    """An interest map's goal arrays sorted by iteration (stable): the map stores them leaf by
-    leaf, so a new goal lands mid-array; in time order it lands at the end. Each leaf keeps its
-    own (time) order, which is all `InterestMap.from_state` reads."""
-    order = np.argsort(interest["iterations"], kind="stable")
-    out = dict(interest)
-    for key in ("goals", "competences", "iterations", "goal_region"):
-        out[key] = interest[key][order]
-    return out
-
-
 def affordance_state(aff: Affordance) -> tuple[dict[str, Any], dict[str, np.ndarray]]:
     p = f"aff{aff.id}"
     interest_json, interest_arrays = aff.interest.state()
@@ -77,7 +66,7 @@ def affordance_state(aff: Affordance) -> tuple[dict[str, Any], dict[str, np.ndar
         arrays[f"{p}.rows.borrowed"] = aff.rows.borrowed.astype(np.int8)
     model = {k: v for k, v in aff.model.state().items() if k not in _MODEL_ROWS}
     arrays.update(_prefixed(f"{p}.model", model))
-    arrays.update(_prefixed(f"{p}.interest", _in_time_order(interest_arrays)))
+    arrays.update(_prefixed(f"{p}.interest", interest_arrays))
     if aff.classifier is not None:
         arrays.update(_prefixed(f"{p}.classifier", aff.classifier.state()))
     return meta, arrays

@@ -142,8 +142,9 @@ def _recorded_context_trials(room: Room, monkeypatch) -> list[int]:
 
 @pytest.mark.parametrize("noise", [False, True])
 def test_rows_that_do_not_match_trigger_a_context_search(noise, monkeypatch):
-    """An episode like the affordance's data matches (no search); noise does not (search)."""
-    room = Room(context_review_every=1000)
+    """An episode like the affordance's data matches (no search); noise does not (search).
+    (The rows are kept either way with `absorb_mismatch`; without it, see below.)"""
+    room = Room(context_review_every=1000, absorb_mismatch=True)
     rng = np.random.default_rng(0)
     aff = room.affordance(room.moves(rng, 150), (ROBOT_HEADING,))
     calls = _recorded_context_trials(room, monkeypatch)
