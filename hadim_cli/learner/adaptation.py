@@ -3,15 +3,18 @@
 For each space whose outcome was non-null during the episode (in random order): every
 affordance predicting that space takes the episode's rows; if they lower its competence by more
 than `match_tolerance` (they do not *match*), context changes are tried — adding, replacing or
-removing one context space — and the best is kept when its competence reaches τ_modification
-and improves by `context_gain`. Then new affordances are tried for the space with every
+removing one context space among every observed space of the bound entities — and the best is
+kept when its competence reaches τ_modification and improves by `context_gain`; rows that no
+change makes fit are given back (the paper's rule; `absorb_mismatch` keeps them, as runs
+stored before 2026-11-25 did). Then new affordances are tried for the space with every
 candidate input (A ∪ Ω_controllable) not yet used for it, with no context or the best single
 context (kept only if it gains `context_gain` over none); the best reaching τ_creation joins H.
 p_A of the object-moving affordances is taught, pooled, the objects that moved (positives) and
 the robot and the objects that refused it (negatives, `_refused`); with `p_a_refusals` off,
 the objects an affordance was applied to in vain (`_applied_in_vain`).
 
-Two switches give the paper's loop (off by default, docs/algorithm.md for what they measured):
+Three switches give the rest of the paper's loop (off by default, docs/algorithm.md for what
+they measured):
 `paper_picks` picks a space k times with replacement instead of each once; `paper_matching`
 also matches the picked space's data against the affordances of other outputs, and a match
 there stands for creation (`matches_other_output`); `paper_match_adds` adds the data to each
@@ -182,8 +185,8 @@ class Adaptation:
         """Held-out competence of `aff` with `contexts`, fitted on its rows and on `rows` of
         another output (read as borrowed: in that output's space)."""
         f = self.fitter
-        model = f.new_model(aff.input, aff.output, contexts)
         if contexts == aff.contexts:
+            model = f.new_model(aff.input, aff.output, contexts)
             model.add(*aff.model.data())
         else:
             model = f.fit(aff.input, aff.output, contexts, aff.rows)
