@@ -206,8 +206,11 @@ class Adaptation:
         position): another kind of quantity is not A's to predict. Nothing is added to A
         here (`_borrow` does, with `paper_match_adds`)."""
         rows = self._other_output_rows(aff, space, t, rng)
-        if rows is None:
-            return False
+        return rows is not None and self._keeps_competence(aff, rows, rng)
+
+    def _keeps_competence(self, aff: Affordance, rows: Rows, rng: np.random.Generator) -> bool:
+        """Matches: `aff` given the borrowed `rows` keeps its held-out competence within
+        `match_tolerance`."""
         return (self._competence_with(aff, aff.contexts, rows, rng)
                 >= aff.competence - self.config.match_tolerance)
 
@@ -222,8 +225,7 @@ class Adaptation:
         rows = self._other_output_rows(aff, space, t, rng)
         if rows is None:
             return False
-        if (self._competence_with(aff, aff.contexts, rows, rng)
-                >= aff.competence - self.config.match_tolerance):
+        if self._keeps_competence(aff, rows, rng):
             self._take_in(aff, aff.contexts, rows, iteration, rng)
             return True
         every = context_candidates(aff.input.roles | aff.output.roles,

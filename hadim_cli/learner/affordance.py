@@ -162,13 +162,12 @@ class Fitter:
         x = self.reader.read(inp, d.outcomes, rows, d.actions)
         c = self.reader.read_many(contexts, d.contexts, rows)
         y = self.reader.read(out, d.outcomes, rows)
-        lent = rows.lent()
-        if lent.any():
+        if rows.borrowed is not None and rows.borrowed.any():  # (None on every usual row set)
             other = borrowed_space(out)
             if other is None:
                 raise ValueError(f"rows borrowed by an affordance of {out.name}, "
                                  "which can take in no other output's data")
-            idx = np.flatnonzero(lent)
+            idx = np.flatnonzero(rows.borrowed)
             y[idx] = self.reader.read(other, d.outcomes, rows.take(idx))
         return Sample(rows, x, c, y)
 
