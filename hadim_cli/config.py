@@ -165,7 +165,13 @@ class LearnerConfig:
     random_sequence_length: int = 8
     """Primitive actions of one random-action learning episode (motor babbling)."""
     k_forward: int = 10
-    """Neighbours of the forward model's local linear fit."""
+    """Neighbours of the forward model's local linear fit (until `k_choices` chose one)."""
+    k_choices: tuple[int, ...] = (10, 20, 30)
+    """Neighbourhoods each model's forward fits may take: whenever its rows have doubled
+    (from 32), the one of least leave-one-out error on them (`LocalLinearModel.k_choices`).
+    Fitted on 10 neighbours, the push model answered a push 5° off its contact line with an
+    outcome 40° off, and the planner could not steer on it (docs/algorithm.md, "Forward
+    neighbourhoods"). Empty: always `k_forward`."""
     k_inverse: int = 20
     """Recorded outcomes the inverse model starts from."""
     robust_fit: int = 0
@@ -348,6 +354,8 @@ class LearnerConfig:
             value = getattr(self, name)
             _check(value >= 1, f"learner.{name}", "must be >= 1", value)
         _check(self.robust_fit >= 0, "learner.robust_fit", "must be >= 0", self.robust_fit)
+        _check(all(k >= 1 for k in self.k_choices), "learner.k_choices",
+               "must hold neighbour counts >= 1", list(self.k_choices))
         _check(self.interest_max_goals >= 2, "learner.interest_max_goals", "must be >= 2",
                self.interest_max_goals)
         _check(self.competence_rows >= 20, "learner.competence_rows", "must be >= 20",
@@ -470,6 +478,19 @@ class PlannerConfig:
     """Re-place only when the trip (its estimated actions) plus pushing from the new place
     costs less than pushing on from here at the rate the forward model predicts; off: the
     fixed `realign` / `place_support` tolerances decide."""
+    near_pursuit: bool = True
+    """With `closer_places` and `pursue_line`: an input nearer its output than the needed
+    relation, on its bearing, pursues the line from where it stands (the needed relation
+    brought to its length), as it counts as at its place. Off: from the needed relation's
+    place behind it, so that a tool 9 cm nearer the target than needed was asked a move of
+    3 cm sideways — shorter than the tolerance of its pusher's sub-goal: nothing moved, and
+    the point stalled with its budget left (one retrained learner scored 0.00)."""
+    precise_places: bool = True
+    """Within a place's tolerance the navigator still prefers, of the commands it scores, the
+    one ending nearest the place: a push steers by a few centimetres (a contact 5° off the
+    line is 2 cm), less than the tolerance of a push's sub-goal. Off: every command ending
+    within the tolerance is as good, and the first of the grid (a full-speed straight drive)
+    is taken."""
 
     def validate(self) -> None:
         for name in ("max_depth", "support_neighbours", "max_detours", "navigation_grid"):
@@ -641,10 +662,12 @@ LEGACY_DEFAULTS: dict[str, dict[str, Any]] = {
     "world": {"settle_time": 0.0},
     "learner": {"surface_relations": False, "relation_frames": False, "context_splits": 1,
                 "p_a_pooled": False, "free_motion": False, "body_frame": False,
-                "p_a_refusals": False, "open_contexts": False, "absorb_mismatch": True},
+                "p_a_refusals": False, "open_contexts": False, "absorb_mismatch": True,
+                "k_choices": ()},
     "planner": {"navigation": False, "steer": False, "hold_relation": False,
                 "pose_places": False, "pursue_line": False, "closer_places": False,
-                "contact_places": False},
+                "contact_places": False, "precise_places": False,
+                "near_pursuit": False},
 }
 """Keys added after runs were first stored, with the value that reproduces what a run stored
 without them did (its defaults then): a stored run restores the learner it trained (the

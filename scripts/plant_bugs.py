@@ -25,6 +25,7 @@ MIGRATIONS = "tests/store/test_store_migrations.py"
 PAPER = "tests/learner/test_paper_interest.py"
 ALG2 = "tests/learner/test_paper_adaptation.py"
 REFUSALS = "tests/learner/test_p_a_refusals.py"
+NB = "tests/learner/test_neighbourhoods.py"
 
 
 class Bug(NamedTuple):
@@ -451,7 +452,9 @@ BUGS = (
         "tests/baselines/test_combinations.py::test_a_baseline_stored_before_a_world_key_"
         "existed_keeps_the_world_it_trained_in"),
     Bug("place-tolerance-ignored-in-cost", "hadim_cli/learner/navigation.py",
-        "        direct = np.where(inside, 0.0, direct)\n", "",
+        "        direct = np.where(inside, np.linalg.norm(position - place.position, axis=1)"
+        " / speed\n                          if self.config.precise_places else 0.0, direct)\n",
+        "",
         "tests/learner/test_pose_reaching.py"),
     Bug("robot-only-counts-pushes", "hadim_cli/evaluation/runner.py",
         "- objects, axis=1)\n                                       < MOVED))",
@@ -462,6 +465,39 @@ BUGS = (
         "            os.environ.setdefault(key, value)",
         "            pass",
         "tests/test_numerics.py::test_importing_hadim_first_pins_every_library_to_avx2_kernels"),
+    Bug("near-pursuit-ignored", "hadim_cli/learner/planner.py",
+        "near if self.pc.near_pursuit\n", "needed if self.pc.near_pursuit\n",
+        "tests/learner/test_planner.py::test_an_object_input_nearer_than_needed_pursues_its_"
+        "line_from_where_it_stands"),
+    Bug("precise-places-ignored", "hadim_cli/learner/navigation.py",
+        "if self.config.precise_places else 0.0", "if False else 0.0",
+        "tests/learner/test_navigation.py::test_a_place_within_its_tolerance_is_still_driven_"
+        "to_as_near_as_the_grid_allows"),
+    Bug("k-choice-always-the-first", "hadim_cli/learner/models.py",
+        "self.k_fit = self.k_choices[int(np.argmin(errors))]",
+        "self.k_fit = self.k_choices[0]",
+        f"{NB}::test_the_neighbourhood_of_least_leave_one_out_error_is_chosen"),
+    Bug("k-fit-unused", "hadim_cli/learner/models.py",
+        "dist, nb = self._query(_FORWARD, z, min(self.k_fit, self._n))",
+        "dist, nb = self._query(_FORWARD, z, min(self.k_forward, self._n))",
+        f"{NB}::test_the_neighbourhood_of_least_leave_one_out_error_is_chosen"),
+    Bug("k-choice-not-restored", "hadim_cli/learner/models.py",
+        "self.k_fit, self._chosen_at = int(k[4]), int(k[5])", "pass",
+        f"{NB}::test_the_chosen_neighbourhood_survives_a_state_round_trip"),
+    Bug("k-choices-not-configured", "hadim_cli/learner/affordance.py",
+        '"k_choices": self.config.k_choices}', '"k_choices": ()}',
+        f"{NB}::test_the_learner_config_reaches_the_models_and_old_runs_keep_none"),
+    Bug("trial-chooses", "hadim_cli/learner/affordance.py",
+        '"k_choices": () if trial else self.config.k_choices}',
+        '"k_choices": self.config.k_choices}',
+        f"{NB}::test_a_trial_model_keeps_k_forward"),
+    Bug("trial-fit-as-a-model", "hadim_cli/learner/affordance.py",
+        "self.fit(inp, out, contexts, rows, trial=True)", "self.fit(inp, out, contexts, rows)",
+        f"{NB}::test_a_trial_model_keeps_k_forward"),
+    Bug("k-choices-legacy-forgotten", "hadim_cli/config.py",
+        '"absorb_mismatch": True,\n                "k_choices": ()},',
+        '"absorb_mismatch": True},',
+        f"{NB}::test_the_learner_config_reaches_the_models_and_old_runs_keep_none"),
 )
 
 

@@ -186,10 +186,10 @@ class Adaptation:
         another output (read as borrowed: in that output's space)."""
         f = self.fitter
         if contexts == aff.contexts:
-            model = f.new_model(aff.input, aff.output, contexts)
+            model = f.new_model(aff.input, aff.output, contexts, trial=True)
             model.add(*aff.model.data())
         else:
-            model = f.fit(aff.input, aff.output, contexts, aff.rows)
+            model = f.fit(aff.input, aff.output, contexts, aff.rows, trial=True)
         s = f.values(aff.input, aff.output, contexts, rows.lending())
         model.add(s.x, s.c, s.y)
         return f.competence(model, rng)

@@ -286,7 +286,7 @@ class Fitter:
 
     # ------------------------------------------------------------------ models
     def new_model(self, inp: RoleSpace, out: RoleSpace,
-                  contexts: tuple[RoleSpace, ...]) -> Model:
+                  contexts: tuple[RoleSpace, ...], trial: bool = False) -> Model:
         """An empty model of (inp → out | contexts): in the frame of its relation context when
         `relation_frames` is on and it has one, or of the robot's heading (`body_frame`)
         (`relation_frame`)."""
@@ -296,7 +296,10 @@ class Fitter:
         dims = (space_dim(inp, layout), space_dim(out, layout),
                 [space_dim(c, layout) for c in contexts])
         params = {"k_forward": self.config.k_forward, "k_inverse": self.config.k_inverse,
-                  "robust_iterations": self.config.robust_fit, "x_low": low, "x_high": high}
+                  "robust_iterations": self.config.robust_fit, "x_low": low, "x_high": high,
+                  # A trial model is scored once and dropped: it keeps `k_forward`, as every
+                  # trial it is compared with (choosing cost 2.5x the learning time).
+                  "k_choices": () if trial else self.config.k_choices}
         frame = (relation_frame(inp, out, contexts, body=self.config.body_frame)
                  if self.config.relation_frames else None)
         if frame is not None:
@@ -304,8 +307,8 @@ class Fitter:
         return LocalLinearModel(*dims, **params)
 
     def fit(self, inp: RoleSpace, out: RoleSpace, contexts: tuple[RoleSpace, ...],
-            rows: Rows) -> Model:
-        model = self.new_model(inp, out, contexts)
+            rows: Rows, trial: bool = False) -> Model:
+        model = self.new_model(inp, out, contexts, trial)
         if len(rows):
             s = self.values(inp, out, contexts, rows)
             model.add(s.x, s.c, s.y)
@@ -326,7 +329,7 @@ class Fitter:
     def trial(self, inp: RoleSpace, out: RoleSpace, contexts: tuple[RoleSpace, ...],
               rows: Rows, rng: np.random.Generator) -> float:
         """Competence of a candidate affordance fitted on `rows`."""
-        return self.competence(self.fit(inp, out, contexts, rows), rng)
+        return self.competence(self.fit(inp, out, contexts, rows, trial=True), rng)
 
     def new_affordance(self, aid: int, inp: RoleSpace, out: RoleSpace,
                        contexts: tuple[RoleSpace, ...], rows: Rows, iteration: int,

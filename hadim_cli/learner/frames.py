@@ -438,11 +438,13 @@ class FramedModel:
         params["frame"] = frame
         saved = LocalLinearModel.saved_params(state)
         saved.update(params)
+        choices = saved.pop("k_choices", ())
         dims = [int(d) for d in state["dims"]]
-        model = cls(dims[0], dims[1], dims[2:], **saved)
+        model = cls(dims[0], dims[1], dims[2:], **saved)  # no choice while the rows come back
         if state["x"].shape[0]:
             model.add(state["x"], state["c"], state["y"])
         model.inner.restore_indexes(state["built"])
+        model.inner.restore_choice(choices, state)
         return model
 
 

@@ -214,7 +214,10 @@ class Navigator:
         # Within the place's tolerance the position is reached: what is left is the heading
         # (a pose 2 cm off, charged a turn to face that 2 cm and back, never turned on).
         inside = np.linalg.norm(position - place.position, axis=1) <= place.tolerance
-        direct = np.where(inside, 0.0, direct)
+        # With `precise_places`, nearer is still better there (a push's steering is finer
+        # than its sub-goal's tolerance).
+        direct = np.where(inside, np.linalg.norm(position - place.position, axis=1) / speed
+                          if self.config.precise_places else 0.0, direct)
         arrive = np.where(inside[:, None], heading, arrive)
         if place.heading is None:
             return direct

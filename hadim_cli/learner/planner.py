@@ -257,9 +257,10 @@ class Planner:
             supported = (self.support_gap(aff, here.x, c, relations, spreads)
                          <= self.pc.place_support)
             needed = self.needed_context(aff, delta, c, relations | self._poses(aff))
-            off = self._gap(aff, spreads, c, self._as_near(aff, c, needed, relations),
-                            relations)
-            way = self._way_to_final_place(aff, b, delta, needed, off, goal, obs)
+            near = self._as_near(aff, c, needed, relations)
+            off = self._gap(aff, spreads, c, near, relations)
+            way = self._way_to_final_place(aff, b, delta, near if self.pc.near_pursuit
+                                           else needed, off, goal, obs)
             if way is not None:
                 return self.execute(aff.input, way, b, actuator, budget, depth, exclude=aff.id)
             # A trip under way goes on until it arrives: replanning every action, a trip

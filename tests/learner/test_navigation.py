@@ -191,3 +191,24 @@ def test_a_prediction_is_kept_for_the_same_observation_until_the_models_change()
     again = nav.predict(other)
     assert again is not first and not _same(again, first)
     assert _same(again, Navigator(h, robot.reader, PlannerConfig()).predict(other))
+
+
+@pytest.mark.parametrize("bearing", [10.0, -12.0])
+def test_a_place_within_its_tolerance_is_still_driven_to_as_near_as_the_grid_allows(bearing):
+    """`planner.precise_places`: a push's sub-goal a few degrees off the heading lies within
+    the sub-goal's tolerance of many commands (4.5 cm); the navigator takes the command
+    ending nearest it (an arc toward it), not the first of those within the tolerance."""
+    robot = Kinematic(0.0, 0.0, 0.0)
+    a = np.radians(bearing)
+    place = Place(0.14 * np.array([np.cos(a), np.sin(a)]), None, 0.045)
+    nav = Navigator(_no_h(), robot.reader, PlannerConfig(), robot.motion)
+    pred = nav.predict(robot.obs)
+    ends = np.linalg.norm(pred.end - place.position, axis=1)
+    chosen = nav.choose(robot.obs, place, [])
+    i = int(np.flatnonzero(np.all(pred.commands == chosen, axis=1))[0])
+    assert ends[i] == pytest.approx(ends.min())
+    assert np.sign(chosen[1] - chosen[0]) == np.sign(bearing)  # it turns toward the place
+    loose = Navigator(_no_h(), robot.reader, PlannerConfig(precise_places=False), robot.motion)
+    chosen = loose.choose(robot.obs, place, [])
+    i = int(np.flatnonzero(np.all(pred.commands == chosen, axis=1))[0])
+    assert ends[i] > ends.min() + 0.005  # without it, any command within the tolerance

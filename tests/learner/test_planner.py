@@ -570,6 +570,44 @@ def test_an_object_input_off_its_line_pursues_a_point_one_step_ahead_on_it():
     np.testing.assert_allclose(final, [0.08, 0.0], atol=1e-9)
 
 
+def test_an_object_input_nearer_than_needed_pursues_its_line_from_where_it_stands():
+    """`near_pursuit`: a tool on the push line but nearer the target than the needed relation
+    (which, with `closer_places`, counts as at its place) is asked the inverse model's step
+    along the line. Pursuing from the needed place behind it asked 1 cm: less than its
+    pusher's sub-goal tolerance, so nothing moved and the point stalled."""
+    from dataclasses import replace
+
+    planner, obs, layout = _avoid_scene()  # target obj1 at (0.6, 0)
+    tool_position = RoleSpace(Role.TOOL, Property.POSITION)
+    target_tool = RoleSpace(Role.TARGET, Property.POSITION, Role.TOOL)
+    model = SimpleNamespace(n=100, context_dims=[2],
+                            infer=lambda delta, c=None: SimpleNamespace(
+                                x=np.array([0.08, 0.0]), y_predicted=np.array([0.06, 0.0])))
+    aff = SimpleNamespace(id=6, model=model, contexts=(target_tool,), input=tool_position,
+                          output=TARGET_POSITION)
+    b = Binding(target=1, tool=2, avoid=1)
+    want, goal, delta = np.array([0.4, 0.0]), np.array([1.2, 0.0]), np.array([0.06, 0.0])
+    behind = np.array([0.6, 0.0]) - planner.reader.offset_now(target_tool, want, obs, 1, 2)
+    obs[layout.space("obj2", Property.POSITION).slice] = behind + [0.07, 0.0]
+    c = planner.value(target_tool, obs, b)
+    assert c[0] < want[0] - 0.05 and abs(c[1]) < 1e-9  # nearer, on the needed bearing
+    planner.context = lambda *args: c
+    planner.reachable_relations = lambda a: np.array([True])
+    planner._spreads = lambda a: [0.1]
+    planner.support_gap = lambda *args: 1.0
+    planner.needed_context = lambda *args: want
+
+    def asked() -> np.ndarray:
+        calls = []
+        planner.execute = lambda space, x, *args, **kw: calls.append(x) or 1
+        planner._one_step(aff, b, delta, SimpleNamespace(obs=obs), 80, 0, goal=goal)
+        return calls[0]
+
+    np.testing.assert_allclose(asked(), [0.08, 0.0], atol=1e-9)
+    planner.pc = replace(planner.pc, near_pursuit=False)
+    np.testing.assert_allclose(asked(), [0.01, 0.0], atol=1e-9)
+
+
 def _action_pusher(pose_places: bool) -> tuple[Planner, SimpleNamespace]:
     """An affordance pushing the target by wheel commands, with the target-robot relation and
     the robot's heading as contexts: in its rows the robot always faced the object and drove
