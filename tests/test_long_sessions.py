@@ -36,6 +36,13 @@ def train(runner, store: Path, iterations: int, *extra: object) -> str:
     return out.strip().splitlines()[0]
 
 
+def _toml(value: object) -> str:
+    """`value` as `--set` reads it: a list as an array, a bool in lower case."""
+    if isinstance(value, tuple | list):
+        return "[" + ", ".join(_toml(v) for v in value) + "]"
+    return str(value).lower()
+
+
 def show(runner, store: Path, run: str) -> dict:
     return json.loads(ok(runner, "runs", "show", run, "--json", "--store", store).stdout)
 
@@ -152,7 +159,7 @@ def test_a_schema_1_store_opens_and_resumes_exactly(runner, tmp_path):
     stored = show(runner, store, "run-1")["config"]
     legacy = [arg for section, keys in LEGACY_DEFAULTS.items() for key, value in keys.items()
               if key not in stored.get(section, {})
-              for arg in ("--set", f"{section}.{key}={str(value).lower()}")]
+              for arg in ("--set", f"{section}.{key}={_toml(value)}")]
     fresh = train(runner, store, 200, *legacy)
     assert show(runner, store, "run-1")["dataset_sha256"] == \
         show(runner, store, fresh)["dataset_sha256"]
