@@ -170,8 +170,8 @@ class LearnerConfig:
     """Neighbourhoods each model's forward fits may take: whenever its rows have doubled
     (from 32), the one of least leave-one-out error on them (`LocalLinearModel.k_choices`).
     Fitted on 10 neighbours, the push model answered a push 5° off its contact line with an
-    outcome 40° off, and the planner could not steer on it (docs/algorithm.md, "Forward
-    neighbourhoods"). Empty: always `k_forward`."""
+    outcome 40° off, and the planner could not steer on it (docs/algorithm.md, "each model
+    chooses its forward neighbourhood"). Empty: always `k_forward`."""
     k_inverse: int = 20
     """Recorded outcomes the inverse model starts from."""
     robust_fit: int = 0

@@ -452,9 +452,8 @@ BUGS = (
         "tests/baselines/test_combinations.py::test_a_baseline_stored_before_a_world_key_"
         "existed_keeps_the_world_it_trained_in"),
     Bug("place-tolerance-ignored-in-cost", "hadim_cli/learner/navigation.py",
-        "        direct = np.where(inside, np.linalg.norm(position - place.position, axis=1)"
-        " / speed\n                          if self.config.precise_places else 0.0, direct)\n",
-        "",
+        "        direct = np.where(inside, apart / speed if self.config.precise_places else 0.0,"
+        " direct)\n", "",
         "tests/learner/test_pose_reaching.py"),
     Bug("robot-only-counts-pushes", "hadim_cli/evaluation/runner.py",
         "- objects, axis=1)\n                                       < MOVED))",

@@ -213,11 +213,11 @@ class Navigator:
         direct, arrive = leg(position, place.position[None], heading)
         # Within the place's tolerance the position is reached: what is left is the heading
         # (a pose 2 cm off, charged a turn to face that 2 cm and back, never turned on).
-        inside = np.linalg.norm(position - place.position, axis=1) <= place.tolerance
+        apart = np.linalg.norm(position - place.position, axis=1)
+        inside = apart <= place.tolerance
         # With `precise_places`, nearer is still better there (a push's steering is finer
         # than its sub-goal's tolerance).
-        direct = np.where(inside, np.linalg.norm(position - place.position, axis=1) / speed
-                          if self.config.precise_places else 0.0, direct)
+        direct = np.where(inside, apart / speed if self.config.precise_places else 0.0, direct)
         arrive = np.where(inside[:, None], heading, arrive)
         if place.heading is None:
             return direct
