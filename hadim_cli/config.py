@@ -492,8 +492,22 @@ class PlannerConfig:
     within the tolerance is as good, and the first of the grid (a full-speed straight drive)
     is taken."""
 
+    route_search: bool = True
+    """With `navigation`: a trip of the robot to the place an affordance pushes from is
+    planned as a sequence of primitive actions (a search over the learned motion, at most
+    `route_depth` actions deep, that keeps out of every object and estimates what is left
+    round the objects in its way), replanned after every action. Off: one action at a time
+    toward waypoints round the objects in the way (out to each waypoint, a turn on the spot,
+    the next one)."""
+    route_depth: int = 6
+    """Actions ahead the trip search looks (`route_search`)."""
+    route_beam: int = 24
+    """Sequences the trip search keeps at each depth, the cheapest by their estimated
+    actions (`route_search`)."""
+
     def validate(self) -> None:
-        for name in ("max_depth", "support_neighbours", "max_detours", "navigation_grid"):
+        for name in ("max_depth", "support_neighbours", "max_detours", "navigation_grid",
+                     "route_depth", "route_beam"):
             value = getattr(self, name)
             _check(value >= 1, f"planner.{name}", "must be >= 1", value)
         _check(self.navigation_grid >= 3, "planner.navigation_grid", "must be >= 3",
@@ -667,7 +681,7 @@ LEGACY_DEFAULTS: dict[str, dict[str, Any]] = {
     "planner": {"navigation": False, "steer": False, "hold_relation": False,
                 "pose_places": False, "pursue_line": False, "closer_places": False,
                 "contact_places": False, "precise_places": False,
-                "near_pursuit": False},
+                "near_pursuit": False, "route_search": False},
 }
 """Keys added after runs were first stored, with the value that reproduces what a run stored
 without them did (its defaults then): a stored run restores the learner it trained (the

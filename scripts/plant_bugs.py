@@ -26,6 +26,7 @@ PAPER = "tests/learner/test_paper_interest.py"
 ALG2 = "tests/learner/test_paper_adaptation.py"
 REFUSALS = "tests/learner/test_p_a_refusals.py"
 NB = "tests/learner/test_neighbourhoods.py"
+NAV = "tests/learner/test_navigation.py"
 
 
 class Bug(NamedTuple):
@@ -42,7 +43,7 @@ BUGS = (
         "delta = gap if dist <= step else gap * (step / dist)", "delta = gap",
         "tests/learner/test_line_pushing.py"),
     Bug("navigator-heading-ignored", "hadim_cli/learner/navigation.py",
-        "direct = direct + line_angle(arrive, want) / turn", "direct = direct",
+        "best = direct + line_angle(arrive, want) / turn", "best = direct",
         "tests/learner/test_pose_reaching.py"),
     Bug("hold-relation-from-here", "hadim_cli/learner/planner.py",
         "way = goal - offset_now - position",
@@ -497,6 +498,41 @@ BUGS = (
         '"absorb_mismatch": True,\n                "k_choices": ()},',
         '"absorb_mismatch": True},',
         f"{NB}::test_the_learner_config_reaches_the_models_and_old_runs_keep_none"),
+    Bug("route-detour-ignored", "hadim_cli/learner/routes.py",
+        "if not hit.size:", "if True:",
+        f"{NAV}::test_the_way_round_a_disc_goes_along_its_tangents_and_its_arc "
+        f"{NAV}::test_a_trip_goes_round_the_object_to_the_place_behind_it_facing_the_push"),
+    Bug("route-disc-entered", "hadim_cli/learner/routes.py",
+        "out |= (d < r) & (d < np.linalg.norm(before - c, axis=1) - 1e-4)",
+        "out |= (d < r) & (d < -1.0)",
+        f"{NAV}::test_a_trip_goes_round_the_object_to_the_place_behind_it_facing_the_push"),
+    Bug("route-rim-radial", "hadim_cli/learner/routes.py",
+        "np.where(on_rim, _rotate(u0, side * (np.pi / 2)),",
+        "np.where(on_rim, _unit(touch0 - frm[rows]),",
+        f"{NAV}::test_the_way_round_a_disc_goes_along_its_tangents_and_its_arc"),
+    Bug("route-approach-within", "hadim_cli/learner/navigation.py",
+        "if obstacles is not None and obstacles.holds(start):", "if False:",
+        f"{NAV}::test_a_trip_leaves_an_object_it_stands_against"),
+    Bug("route-last-not-first", "hadim_cli/learner/routes.py",
+        "first = np.tile(tried, pos.shape[0]) if d == 1 else origin[parent]",
+        "first = np.tile(tried, pos.shape[0])",
+        f"{NAV}::test_a_trip_goes_round_the_object_to_the_place_behind_it_facing_the_push"),
+    Bug("route-search-off", "hadim_cli/learner/planner.py",
+        "near, search=self.pc.route_search)", "near, search=False)",
+        "tests/learner/test_planner.py::test_the_place_of_an_action_pusher_is_driven_to_facing_"
+        "its_heading"),
+    Bug("near-disc-not-shrunk", "hadim_cli/learner/planner.py",
+        "radii[near - 1] = min(radii[near - 1],", "radii[near - 1] = max(radii[near - 1],",
+        "tests/learner/test_planner.py::test_a_trip_keeps_out_of_every_object_and_reaches_the_"
+        "one_it_is_taken_next_to"),
+    Bug("avoid-disc-contact", "hadim_cli/learner/planner.py",
+        "radii[b.avoid - 1] = self._avoid_distance(obs, b)",
+        "radii[b.avoid - 1] = radii[b.avoid - 1]",
+        "tests/learner/test_planner.py::test_a_trip_keeps_out_of_every_object_and_reaches_the_"
+        "one_it_is_taken_next_to"),
+    Bug("route-search-legacy-forgotten", "hadim_cli/config.py",
+        '"near_pursuit": False, "route_search": False}', '"near_pursuit": False}',
+        "tests/test_config.py::test_a_run_stored_before_trips_were_searched_keeps_its_waypoints"),
 )
 
 

@@ -97,6 +97,16 @@ def test_a_run_stored_before_the_papers_rules_were_the_default_keeps_its_own():
     assert (legacy.open_contexts, legacy.absorb_mismatch) == (False, True)
 
 
+def test_a_run_stored_before_trips_were_searched_keeps_its_waypoints():
+    """`planner.route_search` (on since 2026-11-25): a stored config lacking it restores the
+    trips by waypoints it was trained with; one holding it keeps it."""
+    values = Config().to_dict()
+    assert values["planner"]["route_search"] is True
+    assert stored_config(values).planner.route_search is True
+    del values["planner"]["route_search"]
+    assert stored_config(values).planner.route_search is False
+
+
 def test_missing_or_broken_file(tmp_path):
     with pytest.raises(ConfigError, match="not found"):
         load_config(tmp_path / "absent.toml")

@@ -25,6 +25,8 @@ import numpy as np
 from hadim_cli.config import PlannerConfig
 from hadim_cli.learner.affordance import Affordance
 from hadim_cli.learner.hierarchy import Hierarchy
+from hadim_cli.learner.routes import Motion as BodyMotion
+from hadim_cli.learner.routes import Obstacles, search
 from hadim_cli.learner.spaces import ACTION, Property, Role, RoleSpace, SpaceReader
 
 ROBOT_POSITION = RoleSpace(Role.ROBOT, Property.POSITION)
@@ -116,6 +118,11 @@ class Navigator:
         self.reader = reader
         self.config = config
         self.commands = command_grid(config.navigation_grid)
+        axis = np.unique(self.commands)
+        coarse = axis[::2]
+        self._coarse = np.flatnonzero(np.isin(self.commands, coarse).all(axis=1))
+        """The commands a trip search tries after its first action: every other value of
+        each wheel's (`routes.search`)."""
         self.motion = motion
         self._predictions: dict[tuple, tuple[tuple, Prediction]] = {}
         """Recent predictions by (observation, target, tool), each with the motion models it
@@ -194,15 +201,19 @@ class Navigator:
                           max(speed, 1e-3), max(turn, 1e-2))
 
     def actions_to_go(self, position: np.ndarray, heading: np.ndarray, place: Place,
-                      speed: float, turn: float) -> np.ndarray:
+                      speed: float, turn: float, obstacles: Obstacles | None = None
+                      ) -> np.ndarray:
         """Estimated primitive actions from poses (position, heading), each (N, 2), to `place`:
         turn to face the way, drive, and with a heading, the last `approach_distance` straight
         along it (the cheaper of going there first or heading straight for the place). A pose
-        within the place's tolerance only turns to its heading."""
+        within the place's tolerance only turns to its heading. With `obstacles`, each leg goes
+        round the discs in its way (`Obstacles.leg`)."""
         position, heading = np.atleast_2d(position), np.atleast_2d(heading)
 
         def leg(frm: np.ndarray, to: np.ndarray, facing: np.ndarray
                 ) -> tuple[np.ndarray, np.ndarray]:
+            if obstacles is not None:
+                return obstacles.leg(frm, to[0], facing, speed, turn)
             way = to - frm
             dist = np.linalg.norm(way, axis=1)
             direction = _unit(way)
@@ -222,12 +233,19 @@ class Navigator:
         if place.heading is None:
             return direct
         want = np.broadcast_to(place.heading, position.shape)
-        direct = direct + line_angle(arrive, want) / turn
-        start = place.position - self.config.approach_distance * place.heading
-        to_start, arrive = leg(position, start[None], heading)
-        via = (to_start + line_angle(arrive, want) / turn
-               + self.config.approach_distance / speed)
-        return np.minimum(direct, via)
+        best = direct + line_angle(arrive, want) / turn
+        # The last stretch is driven along the heading, from behind the place; with
+        # obstacles, from either side of it that lies outside them (from behind a place
+        # next to an object, the stretch would start within the object).
+        sides = (-1.0,) if obstacles is None else (-1.0, 1.0)
+        for side in sides:
+            start = place.position + side * self.config.approach_distance * place.heading
+            if obstacles is not None and obstacles.holds(start):
+                continue
+            to_start, arrive = leg(position, start[None], heading)
+            best = np.minimum(best, to_start + line_angle(arrive, want) / turn
+                              + self.config.approach_distance / speed)
+        return best
 
     def reached(self, obs: np.ndarray, place: Place) -> bool:
         position = self.reader.entity_position(obs, 0)
@@ -279,6 +297,50 @@ class Navigator:
         if self._stalled(place, here):
             return None
         return pred.commands[best].copy()
+
+    def route(self, obs: np.ndarray, place: Place, obstacles: Obstacles, target: int = -1,
+              tool: int = -1) -> np.ndarray | None:
+        """The first command of the best sequence of commands to `place` that keeps out of
+        the `obstacles` (`routes.search`, `route_depth` deep): a trip planned whole, replanned
+        after every action. None: there, no command allowed, or the pursuit stalled."""
+        if self.reached(obs, place):
+            return None
+        pred = self.predict(obs, target, tool)
+        if pred is None:
+            return None
+        position = self.reader.entity_position(obs, 0)
+        heading = self.reader.value_now(ROBOT_HEADING, obs)
+        obstacles = obstacles.within(position, place.position,
+                                     self.config.route_depth * pred.speed)
+
+        def to_go(p: np.ndarray, h: np.ndarray) -> np.ndarray:
+            return self.actions_to_go(p, h, place, pred.speed, pred.turn, obstacles)
+
+        def reached(p: np.ndarray, h: np.ndarray) -> np.ndarray:
+            there = np.linalg.norm(p - place.position, axis=1) <= place.tolerance
+            if place.heading is None:
+                return there
+            return there & (line_angle(h, place.heading[None]) <= self.config.heading_tolerance)
+
+        found = search(position, heading, self._body(pred, position, heading), obstacles,
+                       to_go, reached, self.config.route_depth, self.config.route_beam,
+                       later=self._coarse)
+        if found is None:
+            return None
+        if self._stalled(place, float(to_go(position[None], heading[None])[0])):
+            return None
+        return pred.commands[found[0]].copy()
+
+    @staticmethod
+    def _body(pred: Prediction, position: np.ndarray, heading: np.ndarray) -> BodyMotion:
+        """The predicted motion of every command, in the robot's frame."""
+        back = -float(np.arctan2(heading[1], heading[0]))
+        c, s = np.cos(back), np.sin(back)
+        to_body = np.array([[c, -s], [s, c]])
+        turned = np.arctan2(heading[0] * pred.heading[:, 1] - heading[1] * pred.heading[:, 0],
+                            pred.heading @ heading)
+        return BodyMotion(pred.commands, (pred.end - position) @ to_body.T,
+                          (pred.half - position) @ to_body.T, turned)
 
     def _stalled(self, place: Place, here: float) -> bool:
         """Whether the pursuit of `place` has gone `STALL_ACTIONS` actions without getting

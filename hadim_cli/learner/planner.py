@@ -37,6 +37,7 @@ from hadim_cli.learner.navigation import (
     Place,
     line_angle,
 )
+from hadim_cli.learner.routes import Obstacles
 from hadim_cli.learner.spaces import ACTION, Property, Role, RoleSpace, SpaceReader
 
 
@@ -723,28 +724,51 @@ class Planner:
         return out
 
     def navigate(self, places: list[Place], b: Binding, actuator: Actuator, budget: int,
-                 near: int = -1) -> int:
+                 near: int = -1, search: bool = False) -> int:
         """Drive the robot through `places` by the navigator; returns actions used (-1: it
-        could not move at all)."""
+        could not move at all). `search`: each place is reached by the trip search
+        (`Navigator.route`) round every object, `near` the one it is taken next to."""
         used = 0
         for place in places:
             self.stack.append(Pursuit("navigate robot.position", place.position, b))
             try:
-                used = self._drive(place, places, b, actuator, budget, near, used)
+                used = self._drive(place, places, b, actuator, budget, near, used, search)
             finally:
                 self.stack.pop()
         return used if used > 0 else -1
 
     def _drive(self, place: Place, route: list[Place], b: Binding, actuator: Actuator,
-               budget: int, near: int, used: int) -> int:
+               budget: int, near: int, used: int, search: bool) -> int:
         while used < budget and not actuator.exhausted:
-            keep = self._keepouts(b, actuator.obs, near, route)
-            action = self.navigator.choose(actuator.obs, place, keep, b.target, b.tool)
+            if search:
+                action = self.navigator.route(actuator.obs, place,
+                                              self._obstacles(b, actuator.obs, near, place),
+                                              b.target, b.tool)
+            else:
+                keep = self._keepouts(b, actuator.obs, near, route)
+                action = self.navigator.choose(actuator.obs, place, keep, b.target, b.tool)
             if action is None:
                 break
             self._act(actuator, action)
             used += 1
         return used
+
+    def _obstacles(self, b: Binding, obs: np.ndarray, near: int, place: Place) -> Obstacles:
+        """Every object as a disc the robot's centre keeps out of on a trip to `place`: at
+        contact plus `CONTACT_MARGIN`; the entity `b` says to avoid at `_avoid_distance`; and
+        `near`, the object the place is next to, no further than just short of the place."""
+        robot_r = self.reader.entity_radius(obs, 0)
+        n = len(self.reader.layout.entities)
+        centres = np.array([self.reader.entity_position(obs, e) for e in range(1, n)])
+        radii = np.array([robot_r + self.reader.entity_radius(obs, e) + CONTACT_MARGIN
+                          for e in range(1, n)])
+        if b.avoid >= 1:
+            radii[b.avoid - 1] = self._avoid_distance(obs, b)
+        if near >= 1 and near != b.avoid:
+            radii[near - 1] = min(radii[near - 1],
+                                  float(np.linalg.norm(place.position - centres[near - 1]))
+                                  - 0.005)
+        return Obstacles(centres.reshape(-1, 2), radii)
 
     def _act(self, actuator: Actuator, action: np.ndarray) -> None:
         """One primitive action, remembering whether it served a placement (`trips`)."""
@@ -842,10 +866,11 @@ class Planner:
                 heading = self.heading_for(then, actuator.obs, b)
             near = b.tool if space.role is Role.TOOL else b.target
             tolerance = max(self.pc.place_support * spreads[i], 0.005)
-            places = [Place(w, None, 2 * tolerance) for w in waypoints[:-1]]
+            places = [] if self.pc.route_search else [Place(w, None, 2 * tolerance)
+                                                      for w in waypoints[:-1]]
             places.append(Place(goal, heading, tolerance))
             done = self.navigate(places, b, actuator, min(budget, self.config.goal_budget),
-                                 near)
+                                 near, search=self.pc.route_search)
             if done > 0:
                 self.trips += starting
                 return done

@@ -22,6 +22,7 @@ from hadim_cli.learner.navigation import (
     command_grid,
     line_angle,
 )
+from hadim_cli.learner.routes import Obstacles
 from hadim_cli.learner.spaces import ACTION, SpaceReader
 from hadim_cli.world.layout import ROBOT, Property
 from hadim_cli.world.world import World
@@ -212,3 +213,82 @@ def test_a_place_within_its_tolerance_is_still_driven_to_as_near_as_the_grid_all
     chosen = loose.choose(robot.obs, place, [])
     i = int(np.flatnonzero(np.all(pred.commands == chosen, axis=1))[0])
     assert ends[i] > ends.min() + 0.005  # without it, any command within the tolerance
+
+
+def test_the_way_round_a_disc_goes_along_its_tangents_and_its_arc():
+    """`Obstacles.leg`, a known answer: from (-1, 0) to (1, 0) round a disc of radius 0.5 at
+    the origin, the way is two tangents of √0.75 and an arc of π/3 (which turns the robot
+    by π/3 as well); a disc off the way changes nothing."""
+    disc = Obstacles(np.array([[0.0, 0.0]]), np.array([0.5]))
+    frm, facing = np.array([[-1.0, 0.0]]), np.array([[1.0, 0.0]])
+    cost, arrive = disc.leg(frm, np.array([1.0, 0.0]), facing, speed=0.1, turn=1.0)
+    tangents, arc = 2 * np.sqrt(0.75), np.pi / 3
+    # The first tangent leaves 30° off the way: that turn is charged too.
+    assert cost[0] == pytest.approx((tangents + 0.5 * arc) / 0.1 + arc + np.pi / 6)
+    assert abs(arrive[0, 1]) == pytest.approx(0.5)  # it arrives along the last tangent
+    aside = Obstacles(np.array([[0.0, 0.8]]), np.array([0.5]))
+    cost, _ = aside.leg(frm, np.array([1.0, 0.0]), facing, speed=0.1, turn=1.0)
+    assert cost[0] == pytest.approx(2.0 / 0.1)
+    # From within the disc (a robot against an object): on the rim at its bearing, along the
+    # rim — facing along it costs no turn, facing out from the centre a quarter turn.
+    inside = np.array([[-0.4, 0.0], [-0.4, 0.0]])
+    cost, _ = disc.leg(inside, np.array([1.0, 0.0]), np.array([[0.0, 1.0], [1.0, 0.0]]),
+                       speed=0.1, turn=1.0)
+    arc = 2 * np.pi / 3
+    assert cost[0] == pytest.approx((np.sqrt(0.75) + 0.5 * arc) / 0.1 + arc)
+    assert cost[1] == pytest.approx(cost[0] + np.pi / 2)
+
+
+def _trip(nav: Navigator, robot: Kinematic, place: Place, discs: Obstacles,
+          limit: int = 30) -> tuple[int, float]:
+    """Actions of a searched trip, and the nearest its centre came to a disc's rim (half-way
+    through each action as well)."""
+    nearest = np.inf
+    for used in range(limit):
+        action = nav.route(robot.obs, place, discs)
+        if action is None:
+            return used, nearest
+        before = robot.reader.entity_position(robot.obs, 0).copy()
+        robot.act(action)
+        after = robot.reader.entity_position(robot.obs, 0)
+        for point in (0.5 * (before + after), after):
+            gaps = np.linalg.norm(discs.centres - point, axis=1) - discs.radii
+            nearest = min(nearest, float(gaps.min()))
+    return limit, nearest
+
+
+def test_a_trip_goes_round_the_object_to_the_place_behind_it_facing_the_push():
+    """`planner.route_search`, on the exact kinematics: the place behind an object (for a push
+    back toward the robot) is reached round the object, never into its disc, facing the
+    push, in about the actions the way round costs at full speed (not the ten or more of a
+    trip by waypoints and turns on the spot)."""
+    robot = Kinematic(0.0, 0.0, 0.0)
+    nav = Navigator(_no_h(), robot.reader, PlannerConfig(), robot.motion)
+    discs = Obstacles(np.array([[0.5, 0.0]]), np.array([0.33]))
+    place = Place(np.array([0.85, 0.0]), np.array([-1.0, 0.0]), 0.03)
+    around = discs.leg(np.zeros((1, 2)), place.position, np.array([[1.0, 0.0]]),
+                       0.15, 1.0)[0][0]
+    used, nearest = _trip(nav, robot, place, discs)
+    assert nav.reached(robot.obs, place)
+    assert nearest >= -1e-9
+    assert used <= around + 2
+
+
+def test_a_trip_leaves_an_object_it_stands_against():
+    """A robot within an object's disc (it has just pushed it) may move as long as it does
+    not get closer to the object's centre: the trip to the object's other side goes out and
+    round, not through it."""
+    robot = Kinematic(0.35, 0.0, 0.0)  # against an object at 0.65 (disc 0.33)
+    nav = Navigator(_no_h(), robot.reader, PlannerConfig(), robot.motion)
+    discs = Obstacles(np.array([[0.65, 0.0]]), np.array([0.33]))
+    place = Place(np.array([0.65, 0.34]), np.array([0.0, 1.0]), 0.03)
+    trace = []
+    for _ in range(30):
+        action = nav.route(robot.obs, place, discs)
+        if action is None:
+            break
+        robot.act(action)
+        trace.append(float(np.linalg.norm(robot.reader.entity_position(robot.obs, 0)
+                                          - discs.centres[0])))
+    assert nav.reached(robot.obs, place)
+    assert min(trace) >= 0.30 - 1e-9  # never closer than where it stood

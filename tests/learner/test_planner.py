@@ -5,12 +5,14 @@ from __future__ import annotations
 from types import SimpleNamespace
 
 import numpy as np
+import pytest
 
 from hadim_cli.config import load_config
 from hadim_cli.learner.adaptation import required_gain
 from hadim_cli.learner.frames import FramedModel, relation_frame
 from hadim_cli.learner.hierarchy import Hierarchy
 from hadim_cli.learner.models import LocalLinearModel
+from hadim_cli.learner.navigation import Place
 from hadim_cli.learner.planner import ROBOT_POSITION, Binding, Planner
 from hadim_cli.learner.spaces import Property, Role, RoleSpace
 
@@ -648,17 +650,24 @@ def test_an_action_pusher_is_placed_with_the_heading_its_pushes_were_made_facing
     np.testing.assert_array_equal(kept[2:], current[2:])
 
 
-def test_the_place_of_an_action_pusher_is_driven_to_facing_its_heading():
+@pytest.mark.parametrize("route_search", [True, False])
+def test_the_place_of_an_action_pusher_is_driven_to_facing_its_heading(route_search):
     """The robot's place for such a pusher is one navigation target with the heading needed;
-    the heading is not then placed again once the robot faces it."""
+    the heading is not then placed again once the robot faces it. With `route_search` the
+    trip is searched whole (the search goes round the objects), without the waypoints
+    round them; without it, through the waypoints."""
+    from dataclasses import replace
+
     from hadim_cli.learner.navigation import ROBOT_HEADING
 
     planner, aff = _action_pusher(True)
-    places = []
+    planner.pc = replace(planner.pc, route_search=route_search)
+    places, searched = [], []
     obs_heading = np.array([0.0, 1.0])
 
-    def navigate(route, b, actuator, budget, near=-1):
+    def navigate(route, b, actuator, budget, near=-1, search=False):
         places.extend(route)
+        searched.append(search)
         obs_heading[:] = route[-1].heading  # arrives facing it
         return 3
 
@@ -666,7 +675,7 @@ def test_the_place_of_an_action_pusher_is_driven_to_facing_its_heading():
     planner._navigating = lambda: True
     planner._spreads = lambda a: [0.3, 1.0]
     planner.step_size = lambda a: 0.1
-    planner._waypoints = lambda driven, goal, obs, b, mover: [goal]
+    planner._waypoints = lambda driven, goal, obs, b, mover: [goal + [0.0, 0.4], goal]
     planner.value = lambda space, obs, b: (obs_heading.copy() if space == ROBOT_HEADING
                                            else np.zeros(2))
     planner.reader = SimpleNamespace(offset_now=lambda space, want, *a: want,
@@ -684,8 +693,9 @@ def test_the_place_of_an_action_pusher_is_driven_to_facing_its_heading():
     world = SimpleNamespace(obs=np.zeros(4), exhausted=False)
     needed = np.array([0.27, 0.0, 1.0, 0.0])
     used = planner._reach_context(aff, Binding(target=1), needed, world, 40, 1)
-    assert used == 3 and len(places) == 1
-    np.testing.assert_allclose(places[0].heading, [1.0, 0.0])
+    assert used == 3 and searched == [route_search]
+    assert len(places) == (1 if route_search else 2)
+    np.testing.assert_allclose(places[-1].heading, [1.0, 0.0])
     assert placed_headings == []  # facing it already: no turn on the spot after the trip
 
 
@@ -859,3 +869,23 @@ def test_the_needed_context_checks_its_relation_against_the_rows_when_asked():
     planner.pc = replace(planner.pc, relations_seen=True)
     needed = planner.needed_context(aff, delta, c, relations)
     assert np.linalg.norm(needed[1:]) > 0.2  # a row's: radius + 0.15 from the centre
+
+
+def test_a_trip_keeps_out_of_every_object_and_reaches_the_one_it_is_taken_next_to():
+    """`Planner._obstacles`: every object is a disc of contact plus the contact margin round
+    it, the entity to avoid one of its avoid distance, and the object the place is next to
+    one that ends just short of the place (else the place itself would lie within it and
+    no way would lead there)."""
+    planner = _planner()
+    centres = {1: np.array([1.0, 0.0]), 2: np.array([0.5, 0.0]), 3: np.array([-1.0, 1.0])}
+    radii = {0: 0.15, 1: 0.12, 2: 0.1, 3: 0.2}
+    planner.reader = SimpleNamespace(
+        layout=SimpleNamespace(entities=("robot", "a", "b", "c")),
+        entity_position=lambda obs, e: centres[e], entity_radius=lambda obs, e: radii[e])
+    place = Place(np.array([0.25, 0.0]), np.array([1.0, 0.0]))  # 0.25 behind object 2
+    discs = planner._obstacles(Binding(target=2, avoid=1), np.zeros(4), 2, place)
+    np.testing.assert_allclose(discs.centres, [centres[1], centres[2], centres[3]])
+    assert discs.radii[0] == pytest.approx(0.15 + 0.12 + planner.pc.avoid_margin)
+    assert discs.radii[1] == pytest.approx(0.25 - 0.005)
+    assert discs.radii[2] == pytest.approx(0.15 + 0.2 + 0.02)
+    assert not discs.holds(place.position)
