@@ -12,6 +12,10 @@ chosen; moving away from one always may be, which is how a robot wedged beside a
 out. Either way along a heading counts: the learned motion shows the robot drives backwards as
 well as forwards, and a disc pushes with its back as well as with its front.
 
+A trip to the place a push is made from (`planner.route_search`) is instead planned as a
+sequence of those commands round the objects (`Navigator.route`, `routes.search`), and
+replanned after every action; a push's sub-goals are still reached one action at a time.
+
 The navigator draws no random numbers and changes nothing in the learner.
 """
 
