@@ -508,7 +508,7 @@ BUGS = (
         f"{NAV}::test_a_trip_goes_round_the_object_to_the_place_behind_it_facing_the_push"),
     Bug("route-rim-radial", "hadim_cli/learner/routes.py",
         "np.where(on_rim, _rotate(u0, side * (np.pi / 2)),",
-        "np.where(on_rim, _unit(touch0 - frm[rows]),",
+        "np.where(on_rim, unit(touch0 - frm[rows]),",
         f"{NAV}::test_the_way_round_a_disc_goes_along_its_tangents_and_its_arc"),
     Bug("route-approach-within", "hadim_cli/learner/navigation.py",
         "if obstacles is not None and obstacles.holds(start):", "if False:",

@@ -30,7 +30,7 @@ from hadim_cli.config import PlannerConfig
 from hadim_cli.learner.affordance import Affordance
 from hadim_cli.learner.hierarchy import Hierarchy
 from hadim_cli.learner.routes import Motion as BodyMotion
-from hadim_cli.learner.routes import Obstacles, search
+from hadim_cli.learner.routes import Obstacles, cross, search, unit
 from hadim_cli.learner.spaces import ACTION, Property, Role, RoleSpace, SpaceReader
 
 ROBOT_POSITION = RoleSpace(Role.ROBOT, Property.POSITION)
@@ -89,11 +89,6 @@ def command_grid(n: int) -> np.ndarray:
     axis = np.sign(axis) * np.abs(axis) ** 1.5
     grid = np.stack(np.meshgrid(axis, axis, indexing="ij"), axis=-1).reshape(-1, 2)
     return grid[np.linalg.norm(grid, axis=1) > 1e-9]
-
-
-def _unit(v: np.ndarray) -> np.ndarray:
-    n = np.linalg.norm(v, axis=-1, keepdims=True)
-    return np.where(n > 1e-9, v / np.maximum(n, 1e-12), 0.0)
 
 
 def line_angle(a: np.ndarray, b: np.ndarray) -> np.ndarray:
@@ -189,11 +184,11 @@ class Navigator:
             ct = self._context(turner, obs, target, tool)
             turned = turner.model.predict(self.commands,
                                           np.repeat(ct[None], n, 0) if ct.size else None)
-            after = _unit(heading + turned)
+            after = unit(heading + turned)
             after[np.linalg.norm(after, axis=1) < 1e-9] = heading
         else:
             # No heading model yet: the robot is taken to face the way it moved.
-            after = np.where(np.linalg.norm(shift, axis=1, keepdims=True) > 1e-6, _unit(shift),
+            after = np.where(np.linalg.norm(shift, axis=1, keepdims=True) > 1e-6, unit(shift),
                              heading)
         return self._prediction(position, heading, shift, after)
 
@@ -220,7 +215,7 @@ class Navigator:
                 return obstacles.leg(frm, to[0], facing, speed, turn)
             way = to - frm
             dist = np.linalg.norm(way, axis=1)
-            direction = _unit(way)
+            direction = unit(way)
             cost = dist / speed + line_angle(facing, direction) / turn
             arrive = np.where(dist[:, None] > 1e-6, direction, facing)
             return cost, arrive
@@ -341,8 +336,7 @@ class Navigator:
         back = -float(np.arctan2(heading[1], heading[0]))
         c, s = np.cos(back), np.sin(back)
         to_body = np.array([[c, -s], [s, c]])
-        turned = np.arctan2(heading[0] * pred.heading[:, 1] - heading[1] * pred.heading[:, 0],
-                            pred.heading @ heading)
+        turned = np.arctan2(cross(heading, pred.heading), pred.heading @ heading)
         return BodyMotion(pred.commands, (pred.end - position) @ to_body.T,
                           (pred.half - position) @ to_body.T, turned)
 

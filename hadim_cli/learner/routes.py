@@ -26,7 +26,8 @@ _CELL = (0.02, 0.02, 0.15)
 """Poses nearer than this (m, m, rad) count as the same in the beam (the cheaper is kept)."""
 
 
-def _unit(v: np.ndarray) -> np.ndarray:
+def unit(v: np.ndarray) -> np.ndarray:
+    """`v` (row-wise) at unit length; null rows stay null."""
     n = np.linalg.norm(v, axis=-1, keepdims=True)
     return np.where(n > 1e-9, v / np.maximum(n, 1e-12), 0.0)
 
@@ -37,7 +38,7 @@ def _rotate(v: np.ndarray, angle: np.ndarray) -> np.ndarray:
                           axis=-1)
 
 
-def _cross(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+def cross(a: np.ndarray, b: np.ndarray) -> np.ndarray:
     return a[..., 0] * b[..., 1] - a[..., 1] * b[..., 0]
 
 
@@ -48,10 +49,6 @@ class Obstacles:
 
     centres: np.ndarray
     radii: np.ndarray
-
-    @staticmethod
-    def none() -> Obstacles:
-        return Obstacles(np.zeros((0, 2)), np.zeros(0))
 
     def within(self, start: np.ndarray, to: np.ndarray, reach: float) -> Obstacles:
         """The discs that come within `reach` (m) of the segment `start` → `to`: the only
@@ -84,8 +81,7 @@ class Obstacles:
         a disc it goes along the tangent to the disc, round its arc and along the tangent
         from it (the disc whose detour costs most; a start within a disc counts as on its
         rim at the same bearing, facing along it), and the turn along the arc is charged as
-        well. Either way along a direction
-        counts (the robot drives backwards as well)."""
+        well. Either way along a direction counts (the robot drives backwards as well)."""
         way = to - frm
         dist = np.sqrt(np.einsum("ij,ij->i", way, way))
         first = way / np.maximum(dist, 1e-12)[:, None]
@@ -107,7 +103,7 @@ class Obstacles:
             d0 = np.sqrt(np.einsum("ij,ij->i", rel, rel))
             u0, u1 = rel / np.maximum(d0, 1e-12)[:, None], (to - c) / end
             d0 = np.maximum(d0, r)  # within: as if on the rim at the same bearing
-            side = np.where(_cross(u0, u1) >= 0, 1.0, -1.0)
+            side = np.where(cross(u0, u1) >= 0, 1.0, -1.0)
             apart = np.arccos(np.clip(u0 @ u1, -1.0, 1.0))
             a0, a1 = np.arccos(np.minimum(r / d0, 1.0)), np.arccos(r / end)
             arc = np.maximum(apart - a0 - a1, 0.0)
@@ -124,8 +120,8 @@ class Obstacles:
             # From the rim (or within: on it at the same bearing), along the rim.
             on_rim = (d0[better] <= r * (1 + 1e-9))[:, None]
             first[rows] = np.where(on_rim, _rotate(u0, side * (np.pi / 2)),
-                                   _unit(touch0 - frm[rows]))
-            arrive[rows] = _unit(to - touch1)
+                                   unit(touch0 - frm[rows]))
+            arrive[rows] = unit(to - touch1)
         facing_way = np.arccos(np.minimum(np.abs(np.einsum("ij,ij->i", facing, first)), 1.0))
         facing_way = np.where(dist > 1e-6, facing_way, 0.0)
         return length / speed + (facing_way + bend) / turn, arrive
