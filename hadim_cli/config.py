@@ -504,6 +504,12 @@ class PlannerConfig:
     route_beam: int = 24
     """Sequences the trip search keeps at each depth, the cheapest by their estimated
     actions (`route_search`)."""
+    spare_stagings: bool = True
+    """A level whose input is another object (the tool level) spares a trip for a remainder
+    shorter than `small_correction` steps once its output has moved towards the goal, as a
+    goal with an entity to avoid does: that trip stages the object round the output, and its
+    pushes can shove the output further off than the remainder. Off: such a level chases
+    every remainder (runs stored before keep it off)."""
 
     def validate(self) -> None:
         for name in ("max_depth", "support_neighbours", "max_detours", "navigation_grid",
@@ -681,7 +687,7 @@ LEGACY_DEFAULTS: dict[str, dict[str, Any]] = {
     "planner": {"navigation": False, "steer": False, "hold_relation": False,
                 "pose_places": False, "pursue_line": False, "closer_places": False,
                 "contact_places": False, "precise_places": False,
-                "near_pursuit": False, "route_search": False},
+                "near_pursuit": False, "route_search": False, "spare_stagings": False},
 }
 """Keys added after runs were first stored, with the value that reproduces what a run stored
 without them did (its defaults then): a stored run restores the learner it trained (the

@@ -98,13 +98,15 @@ def test_a_run_stored_before_the_papers_rules_were_the_default_keeps_its_own():
 
 
 def test_a_run_stored_before_trips_were_searched_keeps_its_waypoints():
-    """`planner.route_search` (on since 2026-11-25): a stored config lacking it restores the
-    trips by waypoints it was trained with; one holding it keeps it."""
-    values = Config().to_dict()
-    assert values["planner"]["route_search"] is True
-    assert stored_config(values).planner.route_search is True
-    del values["planner"]["route_search"]
-    assert stored_config(values).planner.route_search is False
+    """`planner.route_search` (on since 2026-11-25) and `planner.spare_stagings` (on since
+    2026-11-26): a stored config lacking one restores what it was trained with (trips by
+    waypoints; every remainder chased by the tool level); one holding it keeps it."""
+    for key in ("route_search", "spare_stagings"):
+        values = Config().to_dict()
+        assert values["planner"][key] is True
+        assert getattr(stored_config(values).planner, key) is True
+        del values["planner"][key]
+        assert getattr(stored_config(values).planner, key) is False
 
 
 def test_missing_or_broken_file(tmp_path):

@@ -238,6 +238,7 @@ class SB3Agent:
     def __init__(self, cfg: BaselineConfig, seed: int):
         from stable_baselines3 import A2C, DQN, HerReplayBuffer
         from stable_baselines3.common.buffers import DictReplayBuffer
+        from stable_baselines3.common.logger import Logger
         from stable_baselines3.common.vec_env import DummyVecEnv
 
         self.algorithm = Algorithm(cfg.algorithm)
@@ -257,6 +258,9 @@ class SB3Agent:
             self.model = _horizon(DQN)(**common, **params, replay_buffer_class=buffer,
                                        replay_buffer_kwargs=her)
         self.model.horizon = cfg.horizon
+        # A logger that writes nowhere: SB3's own makes a new directory under the system's
+        # temporary one at every `learn` call (one per chunk: thousands per sweep).
+        self.model.set_logger(Logger(folder=None, output_formats=[]))
 
     @property
     def iterations(self) -> int:

@@ -86,3 +86,24 @@ def test_curious_draws_modules_by_progress_and_rewards_the_active_slot():
     a = env.encode(np.array([0.5, 0.5]), 2)
     assert env.compute_reward(a, env.encode(np.array([0.55, 0.5]), 2), None) == GOAL_REWARD
     assert env.compute_reward(a, env.encode(np.array([0.8, 0.5]), 2), None) == STEP_PENALTY
+
+
+@pytest.mark.parametrize("algorithm", ["dqn", "a2c"])
+def test_learning_in_chunks_writes_nothing_to_the_temporary_directory(
+        algorithm, tmp_path, monkeypatch):
+    """SB3's own logger makes a new directory under the system's temporary one at every
+    `learn` call: one per chunk, thousands per sweep (2488 were found after a day of test
+    runs). The agents log nowhere (torch may keep its own caches there)."""
+    import tempfile
+
+    from hadim_cli.baselines.agents import BaselineConfig, make_agent
+
+    monkeypatch.delenv("SB3_LOGDIR", raising=False)
+    monkeypatch.setattr(tempfile, "tempdir", str(tmp_path))
+    agent = make_agent(BaselineConfig(algorithm, "move-robot", "sparse", episode_length=20,
+                                      params={"learning_starts": 5}
+                                      if algorithm == "dqn" else {}), seed=0)
+    for _ in range(3):
+        agent.learn(10)
+    assert agent.iterations >= 30
+    assert not [p.name for p in tmp_path.iterdir() if p.name.startswith("SB3-")]

@@ -357,6 +357,37 @@ def test_a_small_remainder_of_an_approached_goal_is_not_worth_a_trip():
     assert flags(Binding(target=1), depth=1) == [True]  # then within its tolerance
 
 
+def test_the_tool_level_spares_a_staging_for_a_small_remainder():
+    """A target 2.4 cm from its goal: the tool staged round it for that last correction
+    shoved it 20 cm off. A level whose input is another object (the tool level) spares such a
+    trip once its output has moved towards the goal, with no entity to avoid in its binding
+    too (`spare_stagings`); off, or for a level the robot pushes, the remainder is chased."""
+    from dataclasses import replace
+
+    planner = _planner()
+    tool_position = RoleSpace(Role.TOOL, Property.POSITION)
+    tool_level = SimpleNamespace(id=6, model=SimpleNamespace(n=100), contexts=(),
+                                 input=tool_position, output=TARGET_POSITION)
+    pusher = SimpleNamespace(id=3, model=SimpleNamespace(n=100), contexts=(),
+                             input=ROBOT_POSITION, output=TARGET_POSITION)
+    seen: list[bool] = []
+    planner.value = lambda *args: np.array([0.17 if seen else 0.0, 0.0])  # moved by a step
+    planner.step_size = lambda a: 0.17
+    planner._one_step = lambda *a, **kw: seen.append(kw["spare_trips"]) or (
+        1 if len(seen) == 1 else -1)
+
+    def flags(aff: SimpleNamespace) -> list[bool]:
+        seen.clear()
+        planner.reach(aff, Binding(target=1, tool=2), np.array([0.2, 0.0]),
+                      SimpleNamespace(obs=None, exhausted=False), 10)
+        return list(seen)
+
+    assert flags(tool_level) == [False, True]
+    assert flags(pusher) == [False, False]
+    planner.pc = replace(planner.pc, spare_stagings=False)
+    assert flags(tool_level) == [False, False]
+
+
 def test_a_roughly_aligned_level_pushes_on_and_steers_back_to_the_needed_relation():
     """A tool that slid along the target's side is pushed on and back behind it in one move
     (`planner.steer`): the step asked from the needed relation plus the way back to it.
