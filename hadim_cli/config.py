@@ -504,6 +504,11 @@ class PlannerConfig:
     route_beam: int = 24
     """Sequences the trip search keeps at each depth, the cheapest by their estimated
     actions (`route_search`)."""
+    pusher_contacts: bool = True
+    """With `contact_places`: only a relation to the entity that pushes (the tool, for an
+    affordance acting through one; else the robot) is brought to contact on a trip. Off:
+    every relation the planner drives is, the robot's to the target under a tool affordance
+    too (runs stored before keep it off)."""
     spare_stagings: bool = True
     """A level whose input is another object (the tool level) spares a trip for a remainder
     shorter than `small_correction` steps once its output has moved towards the goal, as a
@@ -687,7 +692,8 @@ LEGACY_DEFAULTS: dict[str, dict[str, Any]] = {
     "planner": {"navigation": False, "steer": False, "hold_relation": False,
                 "pose_places": False, "pursue_line": False, "closer_places": False,
                 "contact_places": False, "precise_places": False,
-                "near_pursuit": False, "route_search": False, "spare_stagings": False},
+                "near_pursuit": False, "route_search": False, "spare_stagings": False,
+                "pusher_contacts": False},
 }
 """Keys added after runs were first stored, with the value that reproduces what a run stored
 without them did (its defaults then): a stored run restores the learner it trained (the

@@ -546,8 +546,16 @@ BUGS = (
         "        self.model.set_logger(Logger(folder=None, output_formats=[]))\n", "",
         "tests/baselines/test_algorithms.py::"
         "test_learning_in_chunks_writes_nothing_to_the_temporary_directory"),
+    Bug("pusher-contacts-ignored", "hadim_cli/learner/planner.py",
+        "if self.pc.pusher_contacts and aff.contexts[i].relative_to is not pusher:",
+        "if False:",
+        f"{PL}::test_only_the_pushers_relation_is_brought_to_contact"),
+    Bug("pusher-contacts-legacy-forgotten", "hadim_cli/config.py",
+        '"spare_stagings": False,\n                "pusher_contacts": False}',
+        '"spare_stagings": False}',
+        "tests/test_config.py::test_a_run_stored_before_trips_were_searched_keeps_its_waypoints"),
     Bug("spare-stagings-legacy-forgotten", "hadim_cli/config.py",
-        '"route_search": False, "spare_stagings": False}', '"route_search": False}',
+        '"route_search": False, "spare_stagings": False,', '"route_search": False,',
         "tests/test_config.py::test_a_run_stored_before_trips_were_searched_keeps_its_waypoints"),
 )
 

@@ -98,10 +98,11 @@ def test_a_run_stored_before_the_papers_rules_were_the_default_keeps_its_own():
 
 
 def test_a_run_stored_before_trips_were_searched_keeps_its_waypoints():
-    """`planner.route_search` (on since 2026-11-25) and `planner.spare_stagings` (on since
-    2026-11-26): a stored config lacking one restores what it was trained with (trips by
-    waypoints; every remainder chased by the tool level); one holding it keeps it."""
-    for key in ("route_search", "spare_stagings"):
+    """`planner.route_search`, `planner.spare_stagings` and `planner.pusher_contacts` (on
+    since 2026-11-25): a stored config lacking one restores what it was trained with (trips by
+    waypoints; every remainder chased by the tool level; every driven relation brought to
+    contact); one holding it keeps it."""
+    for key in ("route_search", "spare_stagings", "pusher_contacts"):
         values = Config().to_dict()
         assert values["planner"][key] is True
         assert getattr(stored_config(values).planner, key) is True

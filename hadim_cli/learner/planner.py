@@ -645,14 +645,20 @@ class Planner:
         """`needed` with each relation of `relations` (those the planner drives) that reads a
         gap between the bodies brought to contact (plus `CONTACT_MARGIN`) on its own bearing
         (`contact_places`): the place a trip drives to. From a gap, the push's first action
-        only closed it."""
+        only closed it. With `pusher_contacts`, only a relation to the entity that pushes
+        (the tool for a tool affordance, else the robot) is: a tool affordance that took the
+        robot's relation to the target as its context (one learner did, until 2280) drove the
+        robot against the target, which the tool task fails on contact."""
         if not (self.pc.contact_places and self.pc.closer_places):
             return needed
         offset = self.reader.relation_offset
         if offset is None:
             return needed
+        pusher = Role.TOOL if aff.input.role is Role.TOOL else Role.ROBOT
         out = needed.copy()
         for i, sl in _slices(aff):
+            if self.pc.pusher_contacts and aff.contexts[i].relative_to is not pusher:
+                continue
             if relations[i] and float(np.linalg.norm(needed[sl])) > offset + CONTACT_MARGIN:
                 out[sl] = _at_length(needed[sl], offset + CONTACT_MARGIN)
         return out

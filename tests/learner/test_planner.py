@@ -865,6 +865,33 @@ def test_a_trip_drives_to_contact_on_the_needed_bearing():
     assert np.allclose(trip_to(near), near)
 
 
+def test_only_the_pushers_relation_is_brought_to_contact():
+    """`planner.pusher_contacts`: a tool affordance whose context is the robot's relation to
+    the target (one learner's was, until 2280) must not drive the robot against the target;
+    its tool's relation still goes to contact. Off, both did."""
+    from dataclasses import replace
+
+    from hadim_cli.learner.affordance import CONTACT_MARGIN
+
+    planner = Planner(Hierarchy(), SimpleNamespace(relation_offset=0.3),
+                      load_config().learner)
+    target_tool = RoleSpace(Role.TARGET, Property.POSITION, Role.TOOL)
+    tool_level = SimpleNamespace(contexts=(TARGET_ROBOT, target_tool),
+                                 model=SimpleNamespace(context_dims=(2, 2)),
+                                 input=RoleSpace(Role.TOOL, Property.POSITION))
+    pusher = SimpleNamespace(contexts=(TARGET_ROBOT,), model=SimpleNamespace(context_dims=(2,)),
+                             input=ROBOT_POSITION)
+    driven = np.array([True, True])
+    needed = np.array([0.0, 0.45, 0.42, 0.0])
+    contact = 0.3 + CONTACT_MARGIN
+    out = planner._at_contact(tool_level, needed, driven)
+    assert np.allclose(out, [0.0, 0.45, contact, 0.0])
+    assert np.allclose(planner._at_contact(pusher, needed[:2], driven[:1]), [0.0, contact])
+    planner.pc = replace(planner.pc, pusher_contacts=False)
+    assert np.allclose(planner._at_contact(tool_level, needed, driven),
+                       [0.0, contact, contact, 0.0])
+
+
 def test_a_needed_relation_inside_the_object_gives_way_to_the_rows_own():
     """`planner.relations_seen`: rows agreeing on a push from both sides of an object fit a
     relation inside it (0.087 from rows of 0.30-0.63, traced on a learner whose every tool
