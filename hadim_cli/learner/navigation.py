@@ -321,14 +321,14 @@ class Navigator:
                 return there
             return there & (line_angle(h, place.heading[None]) <= self.config.heading_tolerance)
 
-        found = search(position, heading, self._body(pred, position, heading), obstacles,
+        first = search(position, heading, self._body(pred, position, heading), obstacles,
                        to_go, reached, self.config.route_depth, self.config.route_beam,
                        later=self._coarse)
-        if found is None:
+        if first is None:
             return None
         if self._stalled(place, float(to_go(position[None], heading[None])[0])):
             return None
-        return pred.commands[found[0]].copy()
+        return pred.commands[first].copy()
 
     @staticmethod
     def _body(pred: Prediction, position: np.ndarray, heading: np.ndarray) -> BodyMotion:

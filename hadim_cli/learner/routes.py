@@ -143,11 +143,11 @@ class Motion:
 
 def search(position: np.ndarray, heading: np.ndarray, motion: Motion, obstacles: Obstacles,
            to_go, reached, depth: int, beam: int,
-           later: np.ndarray | None = None) -> tuple[int, float] | None:
+           later: np.ndarray | None = None) -> int | None:
     """The first command (its index in `motion.commands`) of the best sequence of at most
-    `depth` commands from the pose (`position`, unit `heading`), and that sequence's
-    estimated cost in actions (its length plus `to_go` where it ends). The best: the shortest
-    that `reached` says arrives; else the least estimated cost. `to_go(positions, headings)`
+    `depth` commands from the pose (`position`, unit `heading`). The best: the shortest that
+    `reached` says arrives; else the least estimated cost in actions (its length plus `to_go`
+    where it ends). `to_go(positions, headings)`
     and `reached(positions, headings)` take (M, 2) arrays each. `later`: the indices of the
     commands tried after the first (all by default; the finest are for the next action,
     and the plan is made again after it). None when every first command is refused by the
@@ -178,8 +178,7 @@ def search(position: np.ndarray, heading: np.ndarray, motion: Motion, obstacles:
         if there.any():
             # The shortest sequence that arrives, the one ending nearest the place first.
             rest = to_go(end[there], facing[there])
-            i = int(np.argmin(rest))
-            return int(first[there][i]), float(d)
+            return int(first[there][int(np.argmin(rest))])
         cost = d + to_go(end, facing)
         i = int(np.argmin(cost))
         if best is None or cost[i] < best[0]:
@@ -191,6 +190,4 @@ def search(position: np.ndarray, heading: np.ndarray, motion: Motion, obstacles:
         _, keep = np.unique(cell, return_index=True)
         kept = order[np.sort(keep)[:beam]]
         pos, ang, origin = end[kept], after[kept], first[kept]
-    if best is None:
-        return None
-    return best[1], best[0]
+    return None if best is None else best[1]
