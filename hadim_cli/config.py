@@ -516,6 +516,19 @@ class PlannerConfig:
     pushes can shove the output further off than the remainder. Off: such a level chases
     every remainder (runs stored before keep it off)."""
 
+    skip_idle_repeats: bool = True
+    """A primitive action that moved nothing (no value of the observation changed) is not
+    asked again from the observation it left: the level asking gets nothing done, and gives
+    up or tries another way. Off: the planner, which decides from the observation alone,
+    repeats it until the attempt's budget is spent (a robot backing into a fixed object 28
+    times; runs stored before keep it off)."""
+
+    drifting_places: bool = True
+    """The navigator's stall count (a place given up after actions that get no closer)
+    follows a place that moved by less than its tolerance since the last action as the same
+    place. Off: a place is the same only to a tenth of a millimetre, and one computed afresh
+    every action (behind an object) never stalls (runs stored before keep it off)."""
+
     def validate(self) -> None:
         for name in ("max_depth", "support_neighbours", "max_detours", "navigation_grid",
                      "route_depth", "route_beam"):
@@ -693,7 +706,8 @@ LEGACY_DEFAULTS: dict[str, dict[str, Any]] = {
                 "pose_places": False, "pursue_line": False, "closer_places": False,
                 "contact_places": False, "precise_places": False,
                 "near_pursuit": False, "route_search": False, "spare_stagings": False,
-                "pusher_contacts": False},
+                "pusher_contacts": False, "skip_idle_repeats": False,
+                "drifting_places": False},
 }
 """Keys added after runs were first stored, with the value that reproduces what a run stored
 without them did (its defaults then): a stored run restores the learner it trained (the

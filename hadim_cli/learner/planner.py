@@ -40,6 +40,9 @@ from hadim_cli.learner.navigation import (
 from hadim_cli.learner.routes import Obstacles
 from hadim_cli.learner.spaces import ACTION, Property, Role, RoleSpace, SpaceReader
 
+IDLE_CHANGE = 1e-4
+"""An action moved nothing when no value of the observation changed by more than this."""
+
 
 class Actuator(Protocol):
     """Executes primitive actions: the world during training (recording D) or evaluation."""
@@ -158,6 +161,9 @@ class Planner:
         counted once, when it starts after an action that was not a placement."""
         self._placed_for: frozenset[int] = frozenset()
         """Affordances whose placement the last primitive action served (a trip under way)."""
+        self._idle: tuple[np.ndarray, np.ndarray] | None = None
+        """(the action, the observation after it) when the last primitive action moved
+        nothing (`skip_idle_repeats`)."""
         self.pusher: Pusher | None = None
         """An exact stand-in for the robot pushing an object where a level above asks
         (`evaluation.exact`, evaluation only); None: the learned affordances push."""
@@ -686,7 +692,8 @@ class Planner:
         """Produce the change `x` of the controllable `space`; returns actions used."""
         if space is ACTION:
             action = np.clip(x, -1.0, 1.0)
-            if self.foresees_contact(b, action, actuator.obs):
+            if self.foresees_contact(b, action, actuator.obs) or self._idle_repeat(
+                    action, actuator.obs):
                 return -1
             self._act(actuator, action)
             return 1
@@ -786,9 +793,26 @@ class Planner:
         return Obstacles(centres.reshape(-1, 2), radii)
 
     def _act(self, actuator: Actuator, action: np.ndarray) -> None:
-        """One primitive action, remembering whether it served a placement (`trips`)."""
+        """One primitive action, remembering whether it served a placement (`trips`) and
+        whether it moved nothing (`_idle_repeat`)."""
+        before = np.array(actuator.obs, dtype=float)
         actuator.act(action)
         self._placed_for = frozenset(p.places for p in self.stack if p.places >= 0)
+        after = np.array(actuator.obs, dtype=float)
+        still = np.allclose(after, before, rtol=0.0, atol=IDLE_CHANGE)
+        self._idle = (np.array(action, dtype=float), after) if still else None
+
+    def _idle_repeat(self, action: np.ndarray, obs: np.ndarray) -> bool:
+        """Whether `action` is the last primitive action again, from the observation it left
+        unchanged (`skip_idle_repeats`): the planner decides from the observation alone, so
+        it would repeat that action until the budget ran out. Traced in training: a robot
+        backing into a fixed object 28 times, the last 28 actions of a tool goal's 40; 4-8 %
+        of every run's actions were the robot pushing on something that did not move."""
+        if not self.pc.skip_idle_repeats or self._idle is None:
+            return False
+        last, left = self._idle
+        return bool(np.allclose(action, last, rtol=0.0, atol=1e-9)
+                    and np.allclose(obs, left, rtol=0.0, atol=IDLE_CHANGE))
 
     def heading_for(self, move: np.ndarray, obs: np.ndarray, b: Binding) -> np.ndarray | None:
         """The heading from which the robot's learned motion produces the displacement `move`

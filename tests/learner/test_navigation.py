@@ -168,6 +168,30 @@ def test_a_place_pursued_without_progress_is_given_up():
     assert nav.choose(robot.obs, place, []) is not None
 
 
+@pytest.mark.parametrize("drifting", [True, False])
+def test_a_place_that_drifts_within_its_tolerance_is_still_given_up(drifting):
+    """`planner.drifting_places`: a place behind an object is computed afresh every action
+    and drifted by a centimetre or two while a robot went to and fro short of it, each time
+    a new place to the stall count (26 actions, the rest of a goal). A place within its
+    tolerance of the last one is the same pursuit; one further off is a new one. Off, only
+    the same place to a tenth of a millimetre counts."""
+    robot = Kinematic(0.0, 0.0, 0.0)
+    nav = Navigator(_no_h(), robot.reader, PlannerConfig(drifting_places=drifting),
+                    robot.motion)
+
+    def place(i: int) -> Place:  # 1.2 cm further each action, tolerance 3 cm
+        return Place(np.array([0.8, 0.012 * i]), None, 0.03)
+
+    chosen = [nav.choose(robot.obs, place(i), []) for i in range(10)]
+    assert chosen[0] is not None
+    if drifting:
+        assert sum(c is not None for c in chosen) <= 4
+    else:
+        assert all(c is not None for c in chosen)
+    far = Place(np.array([0.8, 0.5]), None, 0.03)  # a new place altogether
+    assert nav.choose(robot.obs, far, []) is not None
+
+
 def _same(a, b) -> bool:
     return all(np.array_equal(getattr(a, f), getattr(b, f))
                for f in ("commands", "half", "end", "heading", "speed", "turn"))

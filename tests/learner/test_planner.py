@@ -14,7 +14,7 @@ from hadim_cli.learner.hierarchy import Hierarchy
 from hadim_cli.learner.models import LocalLinearModel
 from hadim_cli.learner.navigation import Place
 from hadim_cli.learner.planner import ROBOT_POSITION, Binding, Planner
-from hadim_cli.learner.spaces import Property, Role, RoleSpace
+from hadim_cli.learner.spaces import ACTION, Property, Role, RoleSpace
 
 TARGET_ROBOT = RoleSpace(Role.TARGET, Property.POSITION, Role.ROBOT)
 TARGET_POSITION = RoleSpace(Role.TARGET, Property.POSITION)
@@ -243,7 +243,7 @@ def test_a_trip_is_taken_only_when_it_costs_less_than_pushing_on():
 def _avoid_scene():
     """A robot (radius 0.15) at the origin that moves 0.15 m per unit of action, a target
     (obj1, radius 0.12) at (0.6, 0) it must not touch, and a planner over that motion."""
-    from hadim_cli.learner.spaces import ACTION, SpaceReader
+    from hadim_cli.learner.spaces import SpaceReader
     from hadim_cli.world.layout import LayoutBounds, ObservationLayout, Property
 
     layout = ObservationLayout.build(2, 4, LayoutBounds(2, 2, 1.5, 0.25, 0.6))
@@ -258,7 +258,7 @@ def _avoid_scene():
     model = LocalLinearModel(2, 2)
     model.add(actions, None, 0.15 * actions)
     mover = SimpleNamespace(id=0, input=ACTION, output=ROBOT_POSITION, contexts=(),
-                            model=model, has_tool=False, competence=1.0)
+                            model=model, has_target=False, has_tool=False, competence=1.0)
     hierarchy = SimpleNamespace(
         controllers=lambda space: [mover] if space == ROBOT_POSITION else [],
         with_output=lambda space: [mover] if space == ROBOT_POSITION else [])
@@ -285,6 +285,47 @@ class _World:
         self._obs[self.position] += 0.15 * np.asarray(action)
         self.acted += 1
         return self._obs
+
+
+class _Wall(_World):
+    """An actuator whose robot is against a fixed object: no action moves anything."""
+
+    def act(self, action):
+        self.acted += 1
+        return self._obs
+
+
+def test_an_action_that_moved_nothing_is_not_repeated_from_where_it_left():
+    """`planner.skip_idle_repeats`: a robot backing into a fixed object did so 28 times, the
+    rest of a goal's budget (the planner decides from the observation alone). An action
+    that moved nothing is refused from the observation it left; another action, or the same
+    one once the world has changed, is not. Off, the attempt spends its whole budget."""
+    from dataclasses import replace
+
+    planner, obs, layout = _avoid_scene()
+    mover = planner.h.controllers(ROBOT_POSITION)[0]
+    world = _Wall(obs, layout)
+    back = np.array([-1.0, 0.0])
+    assert planner.execute(ACTION, back, Binding(), world, 1, 0) == 1
+    assert planner.execute(ACTION, back, Binding(), world, 1, 0) == -1
+    assert world.acted == 1
+    assert planner.execute(ACTION, np.array([0.0, 1.0]), Binding(), world, 1, 0) == 1
+    assert planner.execute(ACTION, np.array([0.0, 1.0]), Binding(), world, 1, 0) == -1
+    world._obs[world.position] += 0.01  # something else moved the robot
+    assert planner.execute(ACTION, np.array([0.0, 1.0]), Binding(), world, 1, 0) == 1
+    # A moving action is never refused.
+    free = _World(obs, layout)
+    for _ in range(3):
+        assert planner.execute(ACTION, back, Binding(), free, 1, 0) == 1
+
+    def attempt(skip: bool) -> int:
+        planner.pc = replace(planner.pc, skip_idle_repeats=skip, navigation=False)
+        planner._idle = None
+        wall = _Wall(obs, layout)
+        return planner.reach(mover, Binding(), np.array([-0.5, 0.0]), wall, 40).actions
+
+    assert attempt(skip=True) == 1
+    assert attempt(skip=False) == 40
 
 
 def test_a_robot_place_where_it_would_touch_what_it_must_avoid_is_refused():
@@ -775,7 +816,7 @@ def test_the_actions_of_a_trip_say_whose_trip_it_is():
     from hadim_cli.learner.planner import Pursuit
 
     planner = _planner()
-    world = SimpleNamespace(act=lambda action: None)
+    world = SimpleNamespace(act=lambda action: None, obs=np.zeros(4))
     planner.stack.append(Pursuit("A6 target.position", np.zeros(2), Binding(target=1)))
     planner.stack.append(Pursuit("place target-robot for A4", np.zeros(2), Binding(), 4))
     planner._act(world, np.zeros(2))
