@@ -581,6 +581,10 @@ BUGS = (
     Bug("drifting-places-legacy-forgotten", "hadim_cli/config.py",
         ',\n                "drifting_places": False}', "}",
         "tests/test_config.py::test_a_run_stored_before_trips_were_searched_keeps_its_waypoints"),
+    Bug("unpinned-numpy-silent", "hadim_cli/numerics.py",
+        "warnings.warn(UNPINNED, RuntimeWarning, stacklevel=3)", "pass",
+        "tests/test_numerics.py::"
+        "test_imported_after_numpy_it_warns_that_the_kernels_are_the_machines"),
     Bug("spare-stagings-legacy-forgotten", "hadim_cli/config.py",
         '"route_search": False, "spare_stagings": False,', '"route_search": False,',
         "tests/test_config.py::test_a_run_stored_before_trips_were_searched_keeps_its_waypoints"),

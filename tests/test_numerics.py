@@ -44,3 +44,20 @@ def test_imported_after_numpy_it_sets_nothing():
     out = subprocess.run([sys.executable, "-c", code], env=clean, check=True,
                          capture_output=True, text=True).stdout
     assert out.strip() == "0"
+
+
+@pytest.mark.skipif(not _has_avx2(), reason="the pinned kernels are AVX2 ones")
+def test_imported_after_numpy_it_warns_that_the_kernels_are_the_machines():
+    """A scratch script that imported numpy first scored a stored learner 0.9585 on the tool
+    task where `hadim eval` gave 0.9629. Imported after numpy (and no pinning set), hadim
+    says so on stderr; imported first, set pinned by a parent process, or asked for the
+    machine's kernels, it says nothing."""
+    def stderr(code: str, **env: str) -> str:
+        clean = {k: v for k, v in os.environ.items() if k not in PINNED and k != NATIVE_ENV}
+        return subprocess.run([sys.executable, "-c", code], env={**clean, **env}, check=True,
+                              capture_output=True, text=True).stderr
+
+    assert "numpy was imported before hadim_cli" in stderr("import numpy, hadim_cli")
+    assert stderr("import hadim_cli, numpy") == ""
+    assert stderr("import numpy, hadim_cli", **PINNED) == ""
+    assert stderr("import numpy, hadim_cli", **{NATIVE_ENV: "1"}) == ""
