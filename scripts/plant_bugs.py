@@ -463,8 +463,8 @@ BUGS = (
         "tests/test_eval_diagnostics.py::test_an_action_counts_as_robot_only_unless_it_moves_"
         "an_object"),
     Bug("kernels-not-pinned", "hadim_cli/numerics.py",
-        "            os.environ.setdefault(key, value)",
-        "            pass",
+        "        os.environ.setdefault(key, value)",
+        "        pass",
         "tests/test_numerics.py::test_importing_hadim_first_pins_every_library_to_avx2_kernels"),
     Bug("near-pursuit-ignored", "hadim_cli/learner/planner.py",
         "near if self.pc.near_pursuit\n", "needed if self.pc.near_pursuit\n",
