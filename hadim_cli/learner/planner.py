@@ -795,9 +795,11 @@ class Planner:
     def _act(self, actuator: Actuator, action: np.ndarray) -> None:
         """One primitive action, remembering whether it served a placement (`trips`) and
         whether it moved nothing (`_idle_repeat`)."""
-        before = np.array(actuator.obs, dtype=float)
+        before = np.array(actuator.obs, dtype=float) if self.pc.skip_idle_repeats else None
         actuator.act(action)
         self._placed_for = frozenset(p.places for p in self.stack if p.places >= 0)
+        if before is None:
+            return  # nothing is refused: no observation to keep
         after = np.array(actuator.obs, dtype=float)
         still = np.allclose(after, before, rtol=0.0, atol=IDLE_CHANGE)
         self._idle = (np.array(action, dtype=float), after) if still else None

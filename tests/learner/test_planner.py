@@ -319,8 +319,9 @@ def test_an_action_that_moved_nothing_is_not_repeated_from_where_it_left():
         assert planner.execute(ACTION, back, Binding(), free, 1, 0) == 1
 
     def attempt(skip: bool) -> int:
+        # Off after an idle action from this very observation (the first attempt's): the
+        # switch, not a forgotten action, must decide.
         planner.pc = replace(planner.pc, skip_idle_repeats=skip, navigation=False)
-        planner._idle = None
         wall = _Wall(obs, layout)
         return planner.reach(mover, Binding(), np.array([-0.5, 0.0]), wall, 40).actions
 
