@@ -529,6 +529,13 @@ class PlannerConfig:
     place. Off: a place is the same only to a tenth of a millimetre, and one computed afresh
     every action (behind an object) never stalls (runs stored before keep it off)."""
 
+    face_places: bool = True
+    """With `navigation`: a trip of the robot that has brought it to its place goes on until
+    the robot faces the heading the place was taken with (the trip search arrives facing it
+    when it can), instead of ending there and leaving the turn to the push (a robot turned
+    57° by its trip turned 57° back for its first push). Off: the trip ends at the place
+    (runs stored before keep it off)."""
+
     def validate(self) -> None:
         for name in ("max_depth", "support_neighbours", "max_detours", "navigation_grid",
                      "route_depth", "route_beam"):
@@ -707,7 +714,7 @@ LEGACY_DEFAULTS: dict[str, dict[str, Any]] = {
                 "contact_places": False, "precise_places": False,
                 "near_pursuit": False, "route_search": False, "spare_stagings": False,
                 "pusher_contacts": False, "skip_idle_repeats": False,
-                "drifting_places": False},
+                "drifting_places": False, "face_places": False},
 }
 """Keys added after runs were first stored, with the value that reproduces what a run stored
 without them did (its defaults then): a stored run restores the learner it trained (the

@@ -266,40 +266,10 @@ class Planner:
                                                                          1e-9)
         relations = self.reachable_relations(aff)
         if relations.any() and depth < self.pc.max_depth:
-            # The inverse answer is only trusted where such outcomes were seen: if the current
-            # relation (e.g. target-robot) is far from that of the data it comes from, first
-            # reach the relation from which outcomes like `delta` are usually obtained.
-            spreads = self._spreads(aff)
-            supported = (self.support_gap(aff, here.x, c, relations, spreads)
-                         <= self.pc.place_support)
-            needed = self.needed_context(aff, delta, c, relations | self._poses(aff))
-            near = self._as_near(aff, c, needed, relations)
-            off = self._gap(aff, spreads, c, near, relations)
-            way = self._way_to_final_place(aff, b, delta, near if self.pc.near_pursuit
-                                           else needed, off, goal, obs)
-            if way is not None:
-                return self.execute(aff.input, way, b, actuator, budget, depth, exclude=aff.id)
-            # A trip under way goes on until it arrives: replanning every action, a trip
-            # given up as soon as the relation was back within `realign` left the robot
-            # going to and fro across that threshold (a trip, a push, a trip again).
-            going_on = self.pc.finish_trips and aff.id in self._placed_for
-            if off > self.pc.place_support and (going_on or self._worth_replacing(
-                    aff, b, needed, delta, obs, progress if supported else 0.0, off, remaining)):
-                if spare_trips and (np.linalg.norm(delta)
-                                    < self.pc.small_correction * self.step_size(aff)):
-                    # The robot circled a tool for 3 cm; a target pushed 3 cm past its goal
-                    # was chased round the tool for 50 actions, and touched.
-                    return -1
-                then = aff.model.infer(delta, needed).x
-                if self.pc.steer and off <= self.pc.realign and not going_on:
-                    done = self._steer(aff, b, delta, c, needed, then, relations, spreads,
-                                       actuator, budget, depth)
-                    if done > 0:
-                        return done
-                used = self._reach_context(aff, b, self._at_contact(aff, needed, relations),
-                                           actuator, budget, depth, then=then)
-                if used != 0:
-                    return used
+            used = self._from_needed(aff, b, delta, c, here.x, progress, relations, actuator,
+                                     budget, depth, remaining, spare_trips, goal)
+            if used is not None:
+                return used
         elif progress < 0.3 and aff.contexts and depth < self.pc.max_depth:
             # A pose context (e.g. the heading for a move): reach that of the best answer.
             used = self._reach_context(aff, b, self.nearest_pose(aff, delta, c), actuator,
@@ -309,6 +279,81 @@ class Planner:
         if progress <= 0.0:
             return -1
         return self.execute(aff.input, here.x, b, actuator, budget, depth, exclude=aff.id)
+
+    def _from_needed(self, aff: Affordance, b: Binding, delta: np.ndarray, c: np.ndarray,
+                     x: np.ndarray, progress: float, relations: np.ndarray,
+                     actuator: Actuator, budget: int, depth: int, remaining: float,
+                     spare_trips: bool, goal: np.ndarray | None) -> int | None:
+        """`_one_step` for an affordance with a relation the planner can drive: the move
+        toward the final place (`hold_relation`), a trip to the needed relation, a steered
+        push, or the end of a trip's turn to its heading (`face_places`). Returns actions
+        used, -1 when nothing can be done, None to push from here with the inverse answer
+        `x` (`progress`: its predicted share of `delta`)."""
+        obs = actuator.obs
+        # The inverse answer is only trusted where such outcomes were seen: if the current
+        # relation (e.g. target-robot) is far from that of the data it comes from, first
+        # reach the relation from which outcomes like `delta` are usually obtained.
+        spreads = self._spreads(aff)
+        supported = (self.support_gap(aff, x, c, relations, spreads)
+                     <= self.pc.place_support)
+        needed = self.needed_context(aff, delta, c, relations | self._poses(aff))
+        near = self._as_near(aff, c, needed, relations)
+        off = self._gap(aff, spreads, c, near, relations)
+        way = self._way_to_final_place(aff, b, delta, near if self.pc.near_pursuit
+                                       else needed, off, goal, obs)
+        if way is not None:
+            return self.execute(aff.input, way, b, actuator, budget, depth, exclude=aff.id)
+        # A trip under way goes on until it arrives: replanning every action, a trip
+        # given up as soon as the relation was back within `realign` left the robot
+        # going to and fro across that threshold (a trip, a push, a trip again).
+        going_on = self.pc.finish_trips and aff.id in self._placed_for
+        if off > self.pc.place_support and (going_on or self._worth_replacing(
+                aff, b, needed, delta, obs, progress if supported else 0.0, off, remaining)):
+            if spare_trips and (np.linalg.norm(delta)
+                                < self.pc.small_correction * self.step_size(aff)):
+                # The robot circled a tool for 3 cm; a target pushed 3 cm past its goal
+                # was chased round the tool for 50 actions, and touched.
+                return -1
+            then = aff.model.infer(delta, needed).x
+            if self.pc.steer and off <= self.pc.realign and not going_on:
+                done = self._steer(aff, b, delta, c, needed, then, relations, spreads,
+                                   actuator, budget, depth)
+                if done > 0:
+                    return done
+            used = self._reach_context(aff, b, self._at_contact(aff, needed, relations),
+                                       actuator, budget, depth, then=then)
+            if used != 0:
+                return used
+        elif self._unfaced(aff, b, delta, needed, obs):
+            used = self._reach_context(aff, b, self._at_contact(aff, needed, relations),
+                                       actuator, budget, depth,
+                                       then=aff.model.infer(delta, needed).x, facing=True)
+            if used > 0:
+                return used
+        return None
+
+    def _unfaced(self, aff: Affordance, b: Binding, delta: np.ndarray, needed: np.ndarray,
+                 obs: np.ndarray) -> bool:
+        """Whether `aff`'s trip, under way at the last action, left the robot at its place but
+        not yet facing the heading that place was taken with (`face_places`)."""
+        if not (self.pc.face_places and aff.input == ROBOT_POSITION and self._navigating()
+                and aff.id in self._placed_for):
+            return False
+        heading = self._trip_heading(aff, b, self._needed_heading(aff, needed),
+                                     aff.model.infer(delta, needed).x, obs)
+        if heading is None:
+            return False
+        now = self.value(ROBOT_HEADING, obs, b)
+        return float(line_angle(now[None], heading[None])[0]) > self.pc.heading_tolerance
+
+    def _trip_heading(self, aff: Affordance, b: Binding, heading: np.ndarray | None,
+                      then: np.ndarray | None, obs: np.ndarray) -> np.ndarray | None:
+        """The heading a trip for `aff`'s needed context arrives with: `heading`, the one
+        that context holds (`pose_places`), else, for an affordance acting from the robot's
+        position, the heading from which its motion makes the move `then`."""
+        if heading is None and then is not None and aff.input == ROBOT_POSITION:
+            heading = self.heading_for(then, obs, b)
+        return heading
 
     def _steer(self, aff: Affordance, b: Binding, delta: np.ndarray, c: np.ndarray,
                needed: np.ndarray, then: np.ndarray, relations: np.ndarray,
@@ -855,7 +900,7 @@ class Planner:
     # ------------------------------------------------------------------ reaching contexts
     def _reach_context(self, aff: Affordance, b: Binding, needed: np.ndarray,
                        actuator: Actuator, budget: int, depth: int,
-                       then: np.ndarray | None = None) -> int:
+                       then: np.ndarray | None = None, facing: bool = False) -> int:
         """Move controllable context spaces of `aff` to the values `needed`. `then`: the input
         change `aff` will ask for from there (with navigation, the robot arrives facing the
         way that change moves it)."""
@@ -865,7 +910,8 @@ class Planner:
         for i, space, driven, goal, sub_b, controllers in self._context_plans(
                 aff, b, needed, actuator.obs):
             current = self.value(driven, actuator.obs, sub_b)
-            if np.linalg.norm(goal - current) < 0.25 * self.step_size(aff) + 0.02:
+            if np.linalg.norm(goal - current) < 0.25 * self.step_size(aff) + 0.02 and not (
+                    facing and driven == ROBOT_POSITION):
                 continue
             if (driven == ROBOT_HEADING and heading is not None and self._navigating()
                     and line_angle(current, goal) <= self.pc.heading_tolerance):
@@ -903,8 +949,7 @@ class Planner:
         waypoints = self._waypoints(driven, goal, actuator.obs, b, target_entity)
         space = aff.contexts[i]
         if driven == ROBOT_POSITION and self._navigating() and space.relative_to is not None:
-            if heading is None and then is not None and aff.input == ROBOT_POSITION:
-                heading = self.heading_for(then, actuator.obs, b)
+            heading = self._trip_heading(aff, b, heading, then, actuator.obs)
             near = b.tool if space.role is Role.TOOL else b.target
             tolerance = max(self.pc.place_support * spreads[i], 0.005)
             places = [] if self.pc.route_search else [Place(w, None, 2 * tolerance)

@@ -811,6 +811,94 @@ def test_a_trip_under_way_goes_on_until_it_arrives():
     assert done[-1] == "push"
 
 
+@pytest.mark.parametrize("heading_now", [90.0, -40.0, 10.0, 170.0])
+def test_a_trip_at_its_place_goes_on_until_the_robot_faces_its_push(heading_now):
+    """`face_places`: a level whose last action served its own trip, now at its place (the
+    relation as needed), goes on with the trip while the robot's heading is off the one the
+    place was taken with by more than `heading_tolerance` (either way along it counts):
+    otherwise the push from there turned first, and a robot that the trip had turned 57° one
+    way turned 57° back. Facing it, another level's trip, or the switch off: it pushes."""
+    from dataclasses import replace
+
+    from hadim_cli.learner.navigation import ROBOT_HEADING
+
+    planner = _planner()
+    planner.pc = replace(planner.pc, face_places=True)
+    aff = SimpleNamespace(id=3, model=SimpleNamespace(n=100, context_dims=[2]),
+                          contexts=(TARGET_ROBOT,), input=ROBOT_POSITION, output=TARGET_POSITION)
+    answer = SimpleNamespace(x=np.array([0.05, 0.0]), y_predicted=np.array([0.05, 0.0]))
+    aff.model.infer = lambda delta, c=None: answer
+    planner.context = lambda *args: np.array([-0.3, 0.0])
+    planner.reachable_relations = lambda a: np.array([True])
+    planner._spreads = lambda a: [0.1]
+    planner.support_gap = lambda *args: 0.0
+    planner.needed_context = lambda *args: np.array([-0.3, 0.0])  # at its place
+    planner.step_size = lambda a: 0.1
+    planner._navigating = lambda: True
+    planner.heading_for = lambda then, obs, b: then / np.linalg.norm(then)  # facing +x
+    angle = np.deg2rad(heading_now)
+    planner.value = lambda space, obs, b: (np.array([np.cos(angle), np.sin(angle)])
+                                           if space == ROBOT_HEADING else np.zeros(2))
+    done = []
+    planner._reach_context = lambda *args, **kw: done.append(
+        "face" if kw.get("facing") else "trip") or 1
+    planner.execute = lambda *args, **kw: done.append("push") or 1
+    actuator = SimpleNamespace(obs=np.zeros(4))
+    delta = np.array([0.05, 0.0])
+    facing = abs(np.cos(angle)) >= np.cos(planner.pc.heading_tolerance)
+    planner._placed_for = frozenset({3})  # the last action was this level's trip
+    planner._one_step(aff, Binding(target=1), delta, actuator, 80, 1)
+    assert done == ["push" if facing else "face"]
+    planner._placed_for = frozenset({5})  # another level's trip: no matter here
+    planner._one_step(aff, Binding(target=1), delta, actuator, 80, 1)
+    assert done[-1] == "push"
+    planner.pc = replace(planner.pc, face_places=False)
+    planner._placed_for = frozenset({3})
+    planner._one_step(aff, Binding(target=1), delta, actuator, 80, 1)
+    assert done[-1] == "push"
+
+
+def test_a_trip_that_only_turns_is_driven_with_its_heading():
+    """What `face_places` asks of `_reach_context`: a place the robot already stands at
+    (within a quarter step) is skipped, unless the trip goes on for its heading; then the
+    navigator is given the place with that heading."""
+    from dataclasses import replace
+
+    from hadim_cli.learner.navigation import ROBOT_HEADING
+
+    planner, aff = _action_pusher(False)  # the heading is not in the needed context
+    planner.pc = replace(planner.pc, route_search=True)
+    aff.input = ROBOT_POSITION
+    places = []
+
+    def navigate(route, b, actuator, budget, near=-1, search=False):
+        places.extend(route)
+        return 1
+
+    planner.navigate = navigate
+    planner._navigating = lambda: True
+    planner._spreads = lambda a: [0.3, 1.0]
+    planner.step_size = lambda a: 0.1
+    planner._waypoints = lambda driven, goal, obs, b, mover: [goal]
+    planner.value = lambda space, obs, b: (np.array([0.0, 1.0]) if space == ROBOT_HEADING
+                                           else np.zeros(2))
+    planner.reader = SimpleNamespace(offset_now=lambda space, want, *a: want,
+                                     relation_offset=None)
+    planner.heading_for = lambda then, obs, b: np.array([1.0, 0.0])
+    planner._drivers = lambda a, driven, sub_b, b: [aff]
+    world = SimpleNamespace(obs=np.zeros(4), exhausted=False)
+    needed = np.array([0.01, 0.0, 0.0, 1.0])  # the robot stands 1 cm from its place
+    then = np.array([0.05, 0.0])
+    assert planner._reach_context(aff, Binding(target=1), needed, world, 40, 1,
+                                  then=then) == 0
+    assert places == []
+    assert planner._reach_context(aff, Binding(target=1), needed, world, 40, 1, then=then,
+                                  facing=True) == 1
+    assert len(places) == 1
+    np.testing.assert_allclose(places[0].position, -needed[:2])
+    np.testing.assert_allclose(places[0].heading, [1.0, 0.0])
+
+
 def test_the_actions_of_a_trip_say_whose_trip_it_is():
     """What `finish_trips` reads: after an action taken while placing the context of an
     affordance, `_placed_for` names that affordance; after a plain push, none."""
