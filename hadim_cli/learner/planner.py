@@ -324,27 +324,31 @@ class Planner:
                                        actuator, budget, depth, then=then)
             if used != 0:
                 return used
-        elif self._unfaced(aff, b, delta, needed, obs):
+        elif (then := self._unfaced(aff, b, delta, needed, obs)) is not None:
             used = self._reach_context(aff, b, self._at_contact(aff, needed, relations),
-                                       actuator, budget, depth,
-                                       then=aff.model.infer(delta, needed).x, facing=True)
+                                       actuator, budget, depth, then=then, facing=True)
             if used > 0:
                 return used
         return None
 
     def _unfaced(self, aff: Affordance, b: Binding, delta: np.ndarray, needed: np.ndarray,
-                 obs: np.ndarray) -> bool:
-        """Whether `aff`'s trip, under way at the last action, left the robot at its place but
-        not yet facing the heading that place was taken with (`face_places`)."""
+                 obs: np.ndarray) -> np.ndarray | None:
+        """With `face_places`, when the robot's last action served `aff`'s own trip and the
+        relation no longer asks for one, but the robot does not face the heading the trip's
+        place was taken with (beyond `heading_tolerance`, either way along it): the move
+        `aff` asks from the `needed` place (the heading is the one that makes it). Else
+        None."""
         if not (self.pc.face_places and aff.input == ROBOT_POSITION and self._navigating()
                 and aff.id in self._placed_for):
-            return False
-        heading = self._trip_heading(aff, b, self._needed_heading(aff, needed),
-                                     aff.model.infer(delta, needed).x, obs)
+            return None
+        then = aff.model.infer(delta, needed).x
+        heading = self._trip_heading(aff, b, self._needed_heading(aff, needed), then, obs)
         if heading is None:
-            return False
+            return None
         now = self.value(ROBOT_HEADING, obs, b)
-        return float(line_angle(now[None], heading[None])[0]) > self.pc.heading_tolerance
+        if float(line_angle(now[None], heading[None])[0]) <= self.pc.heading_tolerance:
+            return None
+        return then
 
     def _trip_heading(self, aff: Affordance, b: Binding, heading: np.ndarray | None,
                       then: np.ndarray | None, obs: np.ndarray) -> np.ndarray | None:
