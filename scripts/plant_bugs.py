@@ -135,8 +135,10 @@ BUGS = (
         "tests/learner/test_planner.py::test_a_pusher_nearer_on_the_needed_bearing_stands_at_"
         "its_place"),
     Bug("contact-places-unused", "hadim_cli/learner/planner.py",
-        "used = self._reach_context(aff, b, self._at_contact(aff, needed, relations),",
-        "used = self._reach_context(aff, b, needed,",
+        "used = self._reach_context(aff, b, self._at_contact(aff, needed, relations),\n"
+        "                                       actuator, budget, depth, then=then)",
+        "used = self._reach_context(aff, b, needed,\n"
+        "                                       actuator, budget, depth, then=then)",
         "tests/learner/test_planner.py::test_a_trip_drives_to_contact_on_the_needed_bearing"),
     Bug("contact-places-no-margin", "hadim_cli/learner/planner.py",
         "out[sl] = _at_length(needed[sl], offset + CONTACT_MARGIN)",
