@@ -772,6 +772,32 @@ def test_the_place_of_an_action_pusher_is_driven_to_facing_its_heading(route_sea
     assert placed_headings == []  # facing it already: no turn on the spot after the trip
 
 
+def _push_level(relation_now, needed) -> tuple[Planner, SimpleNamespace]:
+    """A push level (`robot.position → target.position | target-robot`, spread 0.1, step 0.1)
+    whose relation reads `relation_now` and whose step asks for `needed`; its inverse answer
+    for a step is the step itself, predicted whole and supported where it stands."""
+    planner = _planner()
+    aff = SimpleNamespace(id=3, model=SimpleNamespace(n=100, context_dims=[2]),
+                          contexts=(TARGET_ROBOT,), input=ROBOT_POSITION, output=TARGET_POSITION)
+    aff.model.infer = lambda delta, c=None: SimpleNamespace(x=delta.copy(),
+                                                            y_predicted=delta.copy())
+    planner.context = lambda *args: np.array(relation_now, dtype=float)
+    planner.reachable_relations = lambda a: np.array([True])
+    planner._spreads = lambda a: [0.1]
+    planner.support_gap = lambda *args: 0.0
+    planner.needed_context = lambda *args: np.array(needed, dtype=float)
+    planner.step_size = lambda a: 0.1
+    return planner, aff
+
+
+def _step_after(planner: Planner, aff, trip_of: tuple[int, ...]) -> int:
+    """`_one_step` of a 5 cm push of `aff` after an action that served the trips of the
+    affordances `trip_of`."""
+    planner._placed_for = frozenset(trip_of)
+    return planner._one_step(aff, Binding(target=1), np.array([0.05, 0.0]),
+                             SimpleNamespace(obs=np.zeros(4)), 80, 1)
+
+
 def test_a_trip_under_way_goes_on_until_it_arrives():
     """`finish_trips`: a level whose last action served the trip to its needed context keeps
     going there while the relation is off by more than `place_support`, even back within
@@ -779,35 +805,21 @@ def test_a_trip_under_way_goes_on_until_it_arrives():
     robot went to and fro across `realign`: a trip, a push, a trip again)."""
     from dataclasses import replace
 
-    planner = _planner()
+    # The push from here is supported, its relation 0.3 spreads off the needed one.
+    planner, aff = _push_level([-0.3, 0.03], [-0.3, 0.0])
     planner.pc = replace(planner.pc, finish_trips=True)
-    aff = SimpleNamespace(id=3, model=SimpleNamespace(n=100, context_dims=[2]),
-                          contexts=(TARGET_ROBOT,), input=ROBOT_POSITION, output=TARGET_POSITION)
-    answer = SimpleNamespace(x=np.array([0.05, 0.0]), y_predicted=np.array([0.05, 0.0]))
-    aff.model.infer = lambda delta, c=None: answer
-    planner.context = lambda *args: np.array([-0.3, 0.03])
-    planner.reachable_relations = lambda a: np.array([True])
-    planner._spreads = lambda a: [0.1]
-    planner.support_gap = lambda *args: 0.0  # the push from here is supported ...
-    planner.needed_context = lambda *args: np.array([-0.3, 0.0])  # ... 0.3 spreads off
-    planner.step_size = lambda a: 0.1
     done = []
     planner._reach_context = lambda *args, **kw: done.append("trip") or 2
     planner._steer = lambda *args, **kw: done.append("steer") or 1
     planner.execute = lambda *args, **kw: done.append("push") or 1
-    actuator = SimpleNamespace(obs=np.zeros(4))
-    delta = np.array([0.05, 0.0])
-    assert planner._one_step(aff, Binding(target=1), delta, actuator, 80, 1) == 1
+    assert _step_after(planner, aff, trip_of=()) == 1
     assert done == ["push"]
-    planner._placed_for = frozenset({3})  # the last action was this level's trip
-    assert planner._one_step(aff, Binding(target=1), delta, actuator, 80, 1) == 2
+    assert _step_after(planner, aff, trip_of=(3,)) == 2  # the last action was its trip
     assert done == ["push", "trip"]
-    planner._placed_for = frozenset({5})  # another level's trip: no matter here
-    planner._one_step(aff, Binding(target=1), delta, actuator, 80, 1)
+    _step_after(planner, aff, trip_of=(5,))  # another level's trip: no matter here
     assert done[-1] == "push"
     planner.pc = replace(planner.pc, finish_trips=False)
-    planner._placed_for = frozenset({3})
-    planner._one_step(aff, Binding(target=1), delta, actuator, 80, 1)
+    _step_after(planner, aff, trip_of=(3,))
     assert done[-1] == "push"
 
 
@@ -822,18 +834,8 @@ def test_a_trip_at_its_place_goes_on_until_the_robot_faces_its_push(heading_now)
 
     from hadim_cli.learner.navigation import ROBOT_HEADING
 
-    planner = _planner()
+    planner, aff = _push_level([-0.3, 0.0], [-0.3, 0.0])  # at its place
     planner.pc = replace(planner.pc, face_places=True)
-    aff = SimpleNamespace(id=3, model=SimpleNamespace(n=100, context_dims=[2]),
-                          contexts=(TARGET_ROBOT,), input=ROBOT_POSITION, output=TARGET_POSITION)
-    answer = SimpleNamespace(x=np.array([0.05, 0.0]), y_predicted=np.array([0.05, 0.0]))
-    aff.model.infer = lambda delta, c=None: answer
-    planner.context = lambda *args: np.array([-0.3, 0.0])
-    planner.reachable_relations = lambda a: np.array([True])
-    planner._spreads = lambda a: [0.1]
-    planner.support_gap = lambda *args: 0.0
-    planner.needed_context = lambda *args: np.array([-0.3, 0.0])  # at its place
-    planner.step_size = lambda a: 0.1
     planner._navigating = lambda: True
     planner.heading_for = lambda then, obs, b: then / np.linalg.norm(then)  # facing +x
     angle = np.deg2rad(heading_now)
@@ -843,18 +845,13 @@ def test_a_trip_at_its_place_goes_on_until_the_robot_faces_its_push(heading_now)
     planner._reach_context = lambda *args, **kw: done.append(
         "face" if kw.get("facing") else "trip") or 1
     planner.execute = lambda *args, **kw: done.append("push") or 1
-    actuator = SimpleNamespace(obs=np.zeros(4))
-    delta = np.array([0.05, 0.0])
     facing = abs(np.cos(angle)) >= np.cos(planner.pc.heading_tolerance)
-    planner._placed_for = frozenset({3})  # the last action was this level's trip
-    planner._one_step(aff, Binding(target=1), delta, actuator, 80, 1)
+    _step_after(planner, aff, trip_of=(3,))  # the last action was this level's trip
     assert done == ["push" if facing else "face"]
-    planner._placed_for = frozenset({5})  # another level's trip: no matter here
-    planner._one_step(aff, Binding(target=1), delta, actuator, 80, 1)
+    _step_after(planner, aff, trip_of=(5,))  # another level's trip: no matter here
     assert done[-1] == "push"
     planner.pc = replace(planner.pc, face_places=False)
-    planner._placed_for = frozenset({3})
-    planner._one_step(aff, Binding(target=1), delta, actuator, 80, 1)
+    _step_after(planner, aff, trip_of=(3,))
     assert done[-1] == "push"
 
 
@@ -921,18 +918,8 @@ def _pusher_at(relation_now, needed, closer: bool):
     'trip' (a re-placement) or 'push' (the inverse answer executed)."""
     from dataclasses import replace
 
-    planner = _planner()
+    planner, aff = _push_level(relation_now, needed)
     planner.pc = replace(planner.pc, closer_places=closer, steer=False, hold_relation=False)
-    aff = SimpleNamespace(id=3, model=SimpleNamespace(n=100, context_dims=(2,)),
-                          contexts=(TARGET_ROBOT,), input=ROBOT_POSITION, output=TARGET_POSITION)
-    answer = SimpleNamespace(x=np.array([0.05, 0.0]), y_predicted=np.array([0.05, 0.0]))
-    aff.model.infer = lambda delta, c=None: answer
-    planner.context = lambda *args: np.asarray(relation_now, dtype=float)
-    planner.reachable_relations = lambda a: np.array([True])
-    planner._spreads = lambda a: [0.1]
-    planner.support_gap = lambda *args: 0.0
-    planner.needed_context = lambda *args: np.asarray(needed, dtype=float)
-    planner.step_size = lambda a: 0.1
     done = []
     planner._reach_context = lambda *args, **kw: done.append("trip") or 3
     planner.execute = lambda *args, **kw: done.append("push") or 1
