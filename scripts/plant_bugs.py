@@ -592,7 +592,7 @@ BUGS = (
         "tests/test_numerics.py::"
         "test_imported_after_numpy_it_warns_that_the_kernels_are_the_machines"),
     Bug("face-places-ignored", "hadim_cli/learner/planner.py",
-        "elif (then := self._unfaced(aff, b, delta, needed, obs)) is not None:",
+        "elif (heading := self._unfaced(aff, b, delta, needed, obs)) is not None:",
         "elif False:",
         f"{PL}::test_a_trip_at_its_place_goes_on_until_the_robot_faces_its_push"),
     Bug("face-places-any-heading", "hadim_cli/learner/planner.py",
@@ -604,7 +604,7 @@ BUGS = (
         "and self._navigating()\n                and bool(self._placed_for)):",
         f"{PL}::test_a_trip_at_its_place_goes_on_until_the_robot_faces_its_push"),
     Bug("face-places-not-driven", "hadim_cli/learner/planner.py",
-        "and not (\n                    facing and driven == ROBOT_POSITION):",
+        "and not (\n                    facing is not None and driven == ROBOT_POSITION):",
         "and not (\n                    False):",
         f"{PL}::test_a_trip_that_only_turns_is_driven_with_its_heading"),
     Bug("face-places-legacy-forgotten", "hadim_cli/config.py",

@@ -324,9 +324,9 @@ class Planner:
                                        actuator, budget, depth, then=then)
             if used != 0:
                 return used
-        elif (then := self._unfaced(aff, b, delta, needed, obs)) is not None:
+        elif (heading := self._unfaced(aff, b, delta, needed, obs)) is not None:
             used = self._reach_context(aff, b, self._at_contact(aff, needed, relations),
-                                       actuator, budget, depth, then=then, facing=True)
+                                       actuator, budget, depth, facing=heading)
             if used > 0:
                 return used
         return None
@@ -335,20 +335,19 @@ class Planner:
                  obs: np.ndarray) -> np.ndarray | None:
         """With `face_places`, when the robot's last action served `aff`'s own trip and the
         relation no longer asks for one, but the robot does not face the heading the trip's
-        place was taken with (beyond `heading_tolerance`, either way along it): the move
-        `aff` asks from the `needed` place (the heading is the one that makes it). Else
-        None."""
+        place was taken with (beyond `heading_tolerance`, either way along it): that
+        heading. Else None."""
         if not (self.pc.face_places and aff.input == ROBOT_POSITION and self._navigating()
                 and aff.id in self._placed_for):
             return None
-        then = aff.model.infer(delta, needed).x
-        heading = self._trip_heading(aff, b, self._needed_heading(aff, needed), then, obs)
+        heading = self._trip_heading(aff, b, self._needed_heading(aff, needed),
+                                     aff.model.infer(delta, needed).x, obs)
         if heading is None:
             return None
         now = self.value(ROBOT_HEADING, obs, b)
         if float(line_angle(now[None], heading[None])[0]) <= self.pc.heading_tolerance:
             return None
-        return then
+        return heading
 
     def _trip_heading(self, aff: Affordance, b: Binding, heading: np.ndarray | None,
                       then: np.ndarray | None, obs: np.ndarray) -> np.ndarray | None:
@@ -904,10 +903,12 @@ class Planner:
     # ------------------------------------------------------------------ reaching contexts
     def _reach_context(self, aff: Affordance, b: Binding, needed: np.ndarray,
                        actuator: Actuator, budget: int, depth: int,
-                       then: np.ndarray | None = None, facing: bool = False) -> int:
+                       then: np.ndarray | None = None, facing: np.ndarray | None = None
+                       ) -> int:
         """Move controllable context spaces of `aff` to the values `needed`. `then`: the input
         change `aff` will ask for from there (with navigation, the robot arrives facing the
-        way that change moves it)."""
+        way that change moves it). `facing`: the heading a trip at its place goes on for
+        (`face_places`): the robot's place is driven to even when it stands there."""
         used = 0
         spreads = self._spreads(aff)
         heading = self._needed_heading(aff, needed)
@@ -915,7 +916,7 @@ class Planner:
                 aff, b, needed, actuator.obs):
             current = self.value(driven, actuator.obs, sub_b)
             if np.linalg.norm(goal - current) < 0.25 * self.step_size(aff) + 0.02 and not (
-                    facing and driven == ROBOT_POSITION):
+                    facing is not None and driven == ROBOT_POSITION):
                 continue
             if (driven == ROBOT_HEADING and heading is not None and self._navigating()
                     and line_angle(current, goal) <= self.pc.heading_tolerance):
@@ -923,7 +924,8 @@ class Planner:
             self.stack.append(Pursuit(f"place {space.name} for A{aff.id}", goal, b, aff.id))
             try:
                 done = self._place(aff, b, i, driven, goal, sub_b, controllers[0], spreads,
-                                   actuator, budget - used, depth, then, heading)
+                                   actuator, budget - used, depth, then,
+                                   heading if facing is None else facing)
             finally:
                 self.stack.pop()
             if done < 0:

@@ -843,7 +843,7 @@ def test_a_trip_at_its_place_goes_on_until_the_robot_faces_its_push(heading_now)
                                            if space == ROBOT_HEADING else np.zeros(2))
     done = []
     planner._reach_context = lambda *args, **kw: done.append(
-        "face" if kw.get("facing") else "trip") or 1
+        "trip" if kw.get("facing") is None else "face") or 1
     planner.execute = lambda *args, **kw: done.append("push") or 1
     facing = abs(np.cos(angle)) >= np.cos(planner.pc.heading_tolerance)
     _step_after(planner, aff, trip_of=(3,))  # the last action was this level's trip
@@ -890,7 +890,7 @@ def test_a_trip_that_only_turns_is_driven_with_its_heading():
                                   then=then) == 0
     assert places == []
     assert planner._reach_context(aff, Binding(target=1), needed, world, 40, 1, then=then,
-                                  facing=True) == 1
+                                  facing=np.array([1.0, 0.0])) == 1
     assert len(places) == 1
     np.testing.assert_allclose(places[0].position, -needed[:2])
     np.testing.assert_allclose(places[0].heading, [1.0, 0.0])
