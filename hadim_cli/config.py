@@ -536,6 +536,14 @@ class PlannerConfig:
     57° by its trip turned 57° back for its first push). Off: the trip ends at the place
     (runs stored before keep it off)."""
 
+    mirrored_relations: bool = True
+    """The place an affordance acts from (`Planner.needed_context`) is fitted over its rows and
+    their mirror images across the line of the wanted outcome: the room's physics is the same
+    in a mirror, and the place fitted over both sides of the line lies on it. Off: over the
+    rows as stored, whose place came out 4-9° off the line of the push, so that the push
+    from there left the few degrees within which a pushed object keeps moving with its
+    pusher (runs stored before keep it off)."""
+
     def validate(self) -> None:
         for name in ("max_depth", "support_neighbours", "max_detours", "navigation_grid",
                      "route_depth", "route_beam"):
@@ -714,7 +722,8 @@ LEGACY_DEFAULTS: dict[str, dict[str, Any]] = {
                 "contact_places": False, "precise_places": False,
                 "near_pursuit": False, "route_search": False, "spare_stagings": False,
                 "pusher_contacts": False, "skip_idle_repeats": False,
-                "drifting_places": False, "face_places": False},
+                "drifting_places": False, "face_places": False,
+                "mirrored_relations": False},
 }
 """Keys added after runs were first stored, with the value that reproduces what a run stored
 without them did (its defaults then): a stored run restores the learner it trained (the

@@ -99,13 +99,13 @@ def test_a_run_stored_before_the_papers_rules_were_the_default_keeps_its_own():
 
 def test_a_run_stored_before_trips_were_searched_keeps_its_waypoints():
     """`planner.route_search`, `spare_stagings`, `pusher_contacts`, `skip_idle_repeats`,
-    `drifting_places` and `face_places` (on since 2026-11-25): a stored config lacking one
-    restores what it was trained with (trips by waypoints; every remainder chased by the tool
-    level; every driven relation brought to contact; an action that moved nothing repeated; a
-    place that drifts never stalls; a trip ended at its place before its heading); one
-    holding it keeps it."""
+    `drifting_places`, `face_places` and `mirrored_relations` (on since 2026-11-25): a stored
+    config lacking one restores what it was trained with (trips by waypoints; every remainder
+    chased by the tool level; every driven relation brought to contact; an action that moved
+    nothing repeated; a place that drifts never stalls; a trip ended at its place before its
+    heading; a place fitted over the rows as stored); one holding it keeps it."""
     for key in ("route_search", "spare_stagings", "pusher_contacts", "skip_idle_repeats",
-                "drifting_places", "face_places"):
+                "drifting_places", "face_places", "mirrored_relations"):
         values = Config().to_dict()
         assert values["planner"][key] is True
         assert getattr(stored_config(values).planner, key) is True

@@ -569,13 +569,18 @@ class Planner:
         x_cols = aff.model.dx
         # A row where nothing moved shows no place an effect comes from (all rows if none moved).
         _, _, ctx, y = seen_where(aff.model, self.config.zero_eps, along=delta)
+        copies = 1
+        if self.pc.mirrored_relations and (mirrored := self._mirrored(aff, ctx, y, delta)):
+            ctx, y = mirrored
+            copies = 2
         scale = aff.model.scales().per_column()
         ctx_scale, y_scale = scale[x_cols:x_cols + ctx.shape[1]], scale[x_cols + ctx.shape[1]:]
         free = np.repeat(relations, aff.model.context_dims)
         query = np.concatenate([(y - delta) / y_scale, ((ctx - c) / ctx_scale)[:, ~free]], 1)
         # Few rows (a new affordance): a neighbourhood of all of them would vote for the
-        # largest cluster whatever its outcome.
-        k = min(2 * self.config.k_inverse, max(3, y.shape[0] // 4), y.shape[0])
+        # largest cluster whatever its outcome. With mirror images, as many stored rows as
+        # without: each comes with its image.
+        k = min(2 * self.config.k_inverse * copies, max(3, y.shape[0] // 4), y.shape[0])
         dist2 = np.einsum("ij,ij->i", query, query)
         near = np.sort(np.argpartition(dist2, k - 1)[:k])  # sorted: a deterministic order
         # Each row counts by how close its outcome is to `delta` (a Gaussian whose width is the
@@ -595,6 +600,37 @@ class Planner:
             needed = self._seen_relation(aff, needed, ctx[near][weights > 1e-6],
                                          ctx[near][best])
         return needed
+
+    @staticmethod
+    def _mirrored(aff: Affordance, ctx: np.ndarray, y: np.ndarray, delta: np.ndarray
+                  ) -> tuple[np.ndarray, np.ndarray] | None:
+        """`mirrored_relations`: the rows (contexts `ctx`, outcomes `y`) followed by their
+        mirror images across the line of `delta` — every outcome, relative position and
+        heading reflected, sizes and colours kept. The room's physics is the same in a mirror
+        (round bodies, a robot whose wheels are alike), so a push seen from one side of its
+        line shows the push from the other side too, and the relation fitted over both sides
+        lies on the line: fitted over one side, the place behind an object was 4-9° off the
+        line of its push, every push from there turned its object, and the next trip came
+        after two pushes. None when `aff` has a context with no mirror image (an absolute
+        position, the LIDAR) or an outcome that is not a 2-D vector."""
+        length = float(np.linalg.norm(delta))
+        if (delta.shape[0] != 2 or length < 1e-12
+                or aff.output.prop not in (Property.POSITION, Property.HEADING)):
+            return None
+        vectors = []
+        for i, sl in _slices(aff):
+            space = aff.contexts[i]
+            if space.prop is Property.LIDAR or (space.prop is Property.POSITION
+                                                and space.relative_to is None):
+                return None
+            if space.prop in (Property.POSITION, Property.RELATIVE, Property.HEADING):
+                vectors.append(sl)
+        u = delta / length
+        flip = 2.0 * np.outer(u, u) - np.eye(2)
+        image = ctx.copy()
+        for sl in vectors:
+            image[:, sl] = ctx[:, sl] @ flip
+        return np.concatenate([ctx, image]), np.concatenate([y, y @ flip])
 
     def _seen_relation(self, aff: Affordance, needed: np.ndarray, rows: np.ndarray,
                        best: np.ndarray) -> np.ndarray:

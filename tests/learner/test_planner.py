@@ -21,10 +21,16 @@ TARGET_POSITION = RoleSpace(Role.TARGET, Property.POSITION)
 RADIUS = RoleSpace(Role.TARGET, Property.RADIUS)
 
 
-def _planner() -> Planner:
+def _planner(mirrored: bool = True) -> Planner:
     # Relations read centre to centre (no contact places); the reader is otherwise unused.
+    config = load_config(overrides=[f"planner.mirrored_relations={str(mirrored).lower()}"])
     return Planner(Hierarchy(), reader=SimpleNamespace(relation_offset=None),
-                   config=load_config().learner)
+                   config=config.learner, planner=config.planner)
+
+
+def _push_aff(model) -> SimpleNamespace:
+    """A pushing affordance around `model` (contexts: the object's radius, the relation)."""
+    return SimpleNamespace(model=model, output=TARGET_POSITION, contexts=(RADIUS, TARGET_ROBOT))
 
 
 def _push_like_model(rng: np.random.Generator, outliers: int, n: int = 300) -> LocalLinearModel:
@@ -48,7 +54,7 @@ def _push_like_model(rng: np.random.Generator, outliers: int, n: int = 300) -> L
 def test_the_context_to_reach_is_where_such_outcomes_usually_come_from():
     rng = np.random.default_rng(0)
     planner = _planner()
-    aff = SimpleNamespace(model=_push_like_model(rng, outliers=3))
+    aff = _push_aff(_push_like_model(rng, outliers=3))
     relations = np.array([False, True])  # the radius is fixed, the relation reachable
     current = np.array([0.12, -0.5, 0.4])  # an object of radius 0.12, robot far away
     needed = planner.needed_context(aff, np.array([0.1, 0.0]), current, relations)
@@ -69,7 +75,7 @@ def test_the_relation_to_reach_is_fitted_through_the_outcomes_around_the_push():
     errors = []
     for theta in np.linspace(0.0, 2 * np.pi, 32, endpoint=False):
         u = np.array([np.cos(theta), np.sin(theta)])
-        needed = planner.needed_context(SimpleNamespace(model=model), 0.1 * u,
+        needed = planner.needed_context(_push_aff(model), 0.1 * u,
                                         np.array([0.12, *(-0.5 * u)]), np.array([False, True]))
         off = np.degrees(np.arctan2(needed[2], needed[1]) - theta)
         errors.append(abs((off + 180.0) % 360.0 - 180.0))
@@ -93,7 +99,7 @@ def test_a_framed_model_knows_where_to_push_from_at_bearings_it_never_saw():
     current = np.array([0.12, *(-0.5 * u)])
     off = {}
     for name, model in (("framed", framed), ("room", room_model(x[keep], c[keep], y[keep]))):
-        needed = planner.needed_context(SimpleNamespace(model=model), 0.1 * u, current,
+        needed = planner.needed_context(_push_aff(model), 0.1 * u, current,
                                         np.array([False, True]))
         cos = float(needed[1:] @ u) / np.linalg.norm(needed[1:])
         off[name] = np.degrees(np.arccos(np.clip(cos, -1.0, 1.0)))
@@ -169,7 +175,7 @@ def test_a_relation_is_measured_against_where_the_affordance_acts():
     far = rng.uniform(-1.5, 1.5, (600, 2))  # rows where nothing moved: the robot far away
     model.add(np.zeros((600, 2)), np.concatenate([np.full((600, 1), 0.12), far], axis=1),
               np.zeros((600, 2)))
-    aff = SimpleNamespace(model=model)
+    aff = _push_aff(model)
     spread = planner._spreads(aff)[1]
     assert spread < 0.35  # contact distances 0.23-0.4 in every direction: about 0.27
     all_rows = np.linalg.norm(model.data()[1][:, 1:].std(axis=0))
@@ -187,7 +193,7 @@ def test_rows_where_nothing_moved_do_not_support_a_push():
     far = np.stack([rng.uniform(0.4, 0.5, n), rng.uniform(-0.05, 0.05, n)], axis=1)
     model.add(rng.uniform(-0.1, 0.1, (n, 2)), np.concatenate([np.full((n, 1), 0.12), far], 1),
               np.zeros((n, 2)))
-    aff = SimpleNamespace(model=model)
+    aff = _push_aff(model)
     relations = np.array([False, True])
     away = np.array([0.12, 0.45, 0.0])
     assert planner.support_gap(aff, np.array([0.1, 0.0]), away, relations) > 0.5
@@ -1034,7 +1040,8 @@ def test_the_needed_context_checks_its_relation_against_the_rows_when_asked():
 
     rng = np.random.default_rng(0)
     model = _push_like_model(rng, outliers=0)
-    aff = SimpleNamespace(model=model, contexts=(RADIUS, TARGET_ROBOT), id=1)
+    aff = SimpleNamespace(model=model, contexts=(RADIUS, TARGET_ROBOT), id=1,
+                          output=TARGET_POSITION)
     planner = _planner()
     planner._relation_at = lambda dy, rel, w: np.array([0.01, 0.0])  # a fit inside
     c = np.array([0.12, 0.3, 0.0])
@@ -1064,3 +1071,71 @@ def test_a_trip_keeps_out_of_every_object_and_reaches_the_one_it_is_taken_next_t
     assert discs.radii[1] == pytest.approx(0.25 - 0.005)
     assert discs.radii[2] == pytest.approx(0.15 + 0.2 + 0.02)
     assert not discs.holds(place.position)
+
+
+def _one_sided_pushes(bias_deg: float, n: int = 300) -> LocalLinearModel:
+    """`n` pushes each made from a relation `bias_deg` to one side of the push's line: the
+    rows a learner holds when most of its pushes struck their object off its centre."""
+    rng = np.random.default_rng(4)
+    angles = rng.uniform(-np.pi, np.pi, n)
+    bias = np.deg2rad(bias_deg)
+    direction = np.stack([np.cos(angles), np.sin(angles)], axis=1)
+    side = np.stack([np.cos(angles + bias), np.sin(angles + bias)], axis=1)
+    radius = rng.uniform(0.08, 0.25, n)
+    step = rng.uniform(0.02, 0.12, n)[:, None]
+    model = LocalLinearModel(2, 2, [1, 2])  # input; contexts: radius, relation
+    model.add(direction * step, np.concatenate([radius[:, None],
+                                                side * (radius + 0.15)[:, None]], axis=1),
+              direction * step * 0.9)
+    return model
+
+
+def _bearing(v: np.ndarray) -> float:
+    return float(np.degrees(np.arctan2(v[1], v[0])))
+
+
+@pytest.mark.parametrize("theta", [0.0, 50.0, -140.0])
+def test_a_place_fitted_with_its_mirror_images_lies_on_the_line_of_its_push(theta):
+    """`mirrored_relations` (on by default): pushes all made from 9° to one side of their
+    line put the place 9° off the line when fitted over the rows as stored; with each row's
+    mirror image across the wanted push the place lies on the line, as far from the object
+    as the rows' (radius + 0.15)."""
+    model = _one_sided_pushes(9.0)
+    u = np.array([np.cos(np.deg2rad(theta)), np.sin(np.deg2rad(theta))])
+    aff = _push_aff(model)
+    current = np.array([0.12, *(-0.5 * u)])
+    relations = np.array([False, True])
+    stored = _planner(mirrored=False).needed_context(aff, 0.08 * u, current, relations)
+    needed = _planner().needed_context(aff, 0.08 * u, current, relations)
+    assert needed[0] == 0.12
+    off = (_bearing(needed[1:]) - theta + 180.0) % 360.0 - 180.0
+    off_stored = (_bearing(stored[1:]) - theta + 180.0) % 360.0 - 180.0
+    assert abs(off) < 1.0 and off_stored > 6.0, (off, off_stored)
+    assert abs(np.linalg.norm(needed[1:]) - 0.27) < 0.04
+
+
+def test_mirror_images_reflect_outcomes_relations_and_headings_and_keep_sizes():
+    """`Planner._mirrored` across the line of a push along +x: every 2-D vector of a row
+    (its outcome, its relation, the robot's heading) is reflected, its radius is kept; an
+    affordance with an absolute position among its contexts has no mirror image."""
+    from hadim_cli.learner.navigation import ROBOT_HEADING
+
+    model = SimpleNamespace(context_dims=[1, 2, 2])
+    aff = SimpleNamespace(model=model, output=TARGET_POSITION,
+                          contexts=(RADIUS, TARGET_ROBOT, ROBOT_HEADING))
+    heading = np.array([np.cos(0.5), np.sin(0.5)])
+    ctx = np.array([[0.12, 0.25, 0.04, *heading]])
+    y = np.array([[0.1, 0.02]])
+    out = Planner._mirrored(aff, ctx, y, np.array([0.3, 0.0]))
+    assert out is not None
+    both_ctx, both_y = out
+    np.testing.assert_array_equal(both_ctx[0], ctx[0])
+    np.testing.assert_allclose(both_ctx[1], [0.12, 0.25, -0.04, heading[0], -heading[1]])
+    np.testing.assert_allclose(both_y, [[0.1, 0.02], [0.1, -0.02]])
+    # Along another line: reflected across it, the push along it is its own image.
+    u = np.array([0.6, 0.8])
+    _, image = Planner._mirrored(aff, ctx, 0.1 * u[None], u)
+    np.testing.assert_allclose(image[1], 0.1 * u)
+    absolute = SimpleNamespace(model=SimpleNamespace(context_dims=[1, 2]), output=TARGET_POSITION,
+                               contexts=(RADIUS, TARGET_POSITION))
+    assert Planner._mirrored(absolute, ctx[:, :3], y, np.array([0.3, 0.0])) is None
