@@ -540,9 +540,9 @@ class PlannerConfig:
     """The place an affordance acts from (`Planner.needed_context`) is fitted over its rows and
     their mirror images across the line of the wanted outcome: the room's physics is the same
     in a mirror, and the place fitted over both sides of the line lies on it. Off: over the
-    rows as stored, whose place came out 4-9° off the line of the push, so that the push
-    from there left the few degrees within which a pushed object keeps moving with its
-    pusher (runs stored before keep it off)."""
+    rows as stored, whose place came out 3-8° (median) off the line of the push, at the edge
+    of the cone within which a pushed object keeps moving with its pusher (runs stored
+    before keep it off)."""
 
     def validate(self) -> None:
         for name in ("max_depth", "support_neighbours", "max_detours", "navigation_grid",

@@ -609,10 +609,11 @@ class Planner:
         heading reflected, sizes and colours kept. The room's physics is the same in a mirror
         (round bodies, a robot whose wheels are alike), so a push seen from one side of its
         line shows the push from the other side too, and the relation fitted over both sides
-        lies on the line: fitted over one side, the place behind an object was 4-9° off the
-        line of its push, every push from there turned its object, and the next trip came
-        after two pushes. None when `aff` has a context with no mirror image (an absolute
-        position, the LIDAR) or an outcome that is not a 2-D vector."""
+        lies on the line. Fitted over the rows alone it lay a few degrees to the side the
+        learner happened to push from, and a push from there left the narrow cone within
+        which a pushed object moves with its pusher (docs/algorithm.md). None when `aff` has
+        a context with no mirror image (an absolute position, the LIDAR) or an outcome that
+        is not a 2-D vector."""
         length = float(np.linalg.norm(delta))
         if (delta.shape[0] != 2 or length < 1e-12
                 or aff.output.prop not in (Property.POSITION, Property.HEADING)):
