@@ -104,8 +104,8 @@ BUGS = (
         "tests/learner/test_planner.py::test_an_action_pusher_is_placed_with_the_heading_its_"
         "pushes_were_made_facing"),
     Bug("pose-places-not-driven", "hadim_cli/learner/planner.py",
-        "actuator, budget - used, depth, then, heading)",
-        "actuator, budget - used, depth, then, None)",
+        "heading if facing is None else facing)",
+        "None if facing is None else facing)",
         "tests/learner/test_planner.py::test_the_place_of_an_action_pusher_is_driven_to_facing_"
         "its_heading"),
     Bug("untried-interest-ignored", "hadim_cli/learner/explorer.py",
@@ -584,8 +584,8 @@ BUGS = (
         "tests/learner/test_navigation.py::"
         "test_a_place_that_drifts_within_its_tolerance_is_still_given_up"),
     Bug("drifting-places-legacy-forgotten", "hadim_cli/config.py",
-        ',\n                "drifting_places": False, "face_places": False}',
-        ', "face_places": False}',
+        ',\n                "drifting_places": False, "face_places": False,',
+        ', "face_places": False,',
         "tests/test_config.py::test_a_run_stored_before_trips_were_searched_keeps_its_waypoints"),
     Bug("unpinned-numpy-silent", "hadim_cli/numerics.py",
         "warnings.warn(UNPINNED, RuntimeWarning, stacklevel=3)", "pass",
