@@ -63,10 +63,16 @@ class Frame:
         return cls(int(a[0]), bool(a[1]), bool(a[2]), tuple(int(v) for v in a[3:]))
 
 
-def _is_vector(space: RoleSpace) -> bool:
+def is_vector(space: RoleSpace) -> bool:
     """A space whose values turn with the scene: changes of positions and headings, relative
     positions and the heading as contexts (an absolute position is a place, not a vector)."""
     return space is not ACTION and space.prop in (Property.POSITION, Property.HEADING)
+
+
+def turns_with_scene(space: RoleSpace) -> bool:
+    """A context whose values turn (and mirror) with the scene: a relative position or the
+    robot's heading; a size, a colour or an absolute place does not."""
+    return space.relative_to is not None or space.prop is Property.HEADING
 
 
 def relation_frame(inp: RoleSpace, out: RoleSpace, contexts: Sequence[RoleSpace],
@@ -78,7 +84,7 @@ def relation_frame(inp: RoleSpace, out: RoleSpace, contexts: Sequence[RoleSpace]
     → robot position or heading) with the robot's heading as a context is framed by that
     heading: a wheel command moves the robot the same way in its own frame whatever way it
     faces (up to its speed before the command, which no observation holds)."""
-    if not _is_vector(out):
+    if not is_vector(out):
         return None
     heading = [i for i, c in enumerate(contexts)
                if c.role is Role.ROBOT and c.prop is Property.HEADING and c.relative_to is None]
@@ -91,9 +97,8 @@ def relation_frame(inp: RoleSpace, out: RoleSpace, contexts: Sequence[RoleSpace]
         axis = (direct or relations)[0]
     else:
         return None
-    vectors = tuple(i for i, c in enumerate(contexts)
-                    if i != axis and (c.relative_to is not None or c.prop is Property.HEADING))
-    return Frame(axis, _is_vector(inp), _is_vector(out), vectors)
+    vectors = tuple(i for i, c in enumerate(contexts) if i != axis and turns_with_scene(c))
+    return Frame(axis, is_vector(inp), is_vector(out), vectors)
 
 
 def _turn(v: np.ndarray, u: np.ndarray) -> np.ndarray:

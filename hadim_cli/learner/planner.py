@@ -27,7 +27,7 @@ from hadim_cli.learner.affordance import (
     typical_step,
 )
 from hadim_cli.learner.competence import split_zero
-from hadim_cli.learner.frames import seen_where
+from hadim_cli.learner.frames import is_vector, seen_where, turns_with_scene
 from hadim_cli.learner.hierarchy import Hierarchy
 from hadim_cli.learner.navigation import (
     ROBOT_HEADING,
@@ -615,17 +615,13 @@ class Planner:
         a context with no mirror image (an absolute position, the LIDAR) or an outcome that
         is not a 2-D vector."""
         length = float(np.linalg.norm(delta))
-        if (delta.shape[0] != 2 or length < 1e-12
-                or aff.output.prop not in (Property.POSITION, Property.HEADING)):
+        if delta.shape[0] != 2 or length < 1e-12 or not is_vector(aff.output):
             return None
-        vectors = []
-        for i, sl in _slices(aff):
-            space = aff.contexts[i]
-            if space.prop is Property.LIDAR or (space.prop is Property.POSITION
-                                                and space.relative_to is None):
-                return None
-            if space.prop in (Property.POSITION, Property.RELATIVE, Property.HEADING):
-                vectors.append(sl)
+        if any(space.prop is Property.LIDAR or (space.prop is Property.POSITION
+                                                and space.relative_to is None)
+               for space in aff.contexts):
+            return None
+        vectors = [sl for i, sl in _slices(aff) if turns_with_scene(aff.contexts[i])]
         u = delta / length
         flip = 2.0 * np.outer(u, u) - np.eye(2)
         image = ctx.copy()
