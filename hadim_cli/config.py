@@ -234,6 +234,11 @@ class LearnerConfig:
     salient_beyond: float = 0.3
     """How far (m) beyond the other object, along the line from the target, a salient goal
     lies: the target has to push that object out of its way instead of stopping at it."""
+    chain_objects: bool = True
+    """ObjectSelection for an affordance acting through a tool takes, of the pairs p_A and the
+    tool's controller accept, the (target, tool) whose chain is shortest: the robot's way to
+    the tool plus the tool's way to the target (for one object, the paper's closest object).
+    Off: the closest target, then the tool nearest it, however far the robot must go first."""
     goal_budget: int = 40
     """Primitive actions one goal attempt may use."""
     subgoal_budget: int = 1
@@ -716,7 +721,7 @@ LEGACY_DEFAULTS: dict[str, dict[str, Any]] = {
     "learner": {"surface_relations": False, "relation_frames": False, "context_splits": 1,
                 "p_a_pooled": False, "free_motion": False, "body_frame": False,
                 "p_a_refusals": False, "open_contexts": False, "absorb_mismatch": True,
-                "k_choices": ()},
+                "k_choices": (), "chain_objects": False},
     "planner": {"navigation": False, "steer": False, "hold_relation": False,
                 "pose_places": False, "pursue_line": False, "closer_places": False,
                 "contact_places": False, "precise_places": False,

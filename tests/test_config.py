@@ -97,6 +97,17 @@ def test_a_run_stored_before_the_papers_rules_were_the_default_keeps_its_own():
     assert (legacy.open_contexts, legacy.absorb_mismatch) == (False, True)
 
 
+def test_a_run_stored_before_tools_were_chosen_by_their_chain_keeps_its_objects():
+    """`learner.chain_objects` (on since 2026-11-26): a stored config lacking it restores the
+    ObjectSelection it trained with (the closest target, then the tool nearest it); one
+    holding it keeps it."""
+    values = Config().to_dict()
+    assert values["learner"]["chain_objects"] is True
+    assert stored_config(values).learner.chain_objects is True
+    del values["learner"]["chain_objects"]
+    assert stored_config(values).learner.chain_objects is False
+
+
 def test_a_run_stored_before_trips_were_searched_keeps_its_waypoints():
     """`planner.route_search`, `spare_stagings`, `pusher_contacts`, `skip_idle_repeats`,
     `drifting_places`, `face_places` and `mirrored_relations` (on since 2026-11-25): a stored

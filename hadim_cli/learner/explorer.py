@@ -124,21 +124,44 @@ class Learner:
         return best
 
     def select_binding(self, aff: Affordance, obs: np.ndarray) -> Binding | None:
-        """ObjectSelection: the closest object p_A accepts (and a tool that can be moved)."""
+        """ObjectSelection: the closest object p_A accepts; through a tool, the pair whose
+        chain is shortest (`chain_objects`), else the tool nearest that object."""
         if not aff.has_target:
             return Binding()
-        target = self.closest(self.accepted_objects(aff, obs), obs)
-        if target < 0:
-            return None
+        targets = self.accepted_objects(aff, obs)
         if not aff.has_tool:
-            return Binding(target=target)
-        movers = [a for a in self.hierarchy.controllers(aff.input)]
+            target = self.closest(targets, obs)
+            return Binding(target=target) if target >= 0 else None
+        movers = self.hierarchy.controllers(aff.input)
         if not movers:
             return None
+        tools = self.accepted_objects(movers[0], obs)
+        if self.config.chain_objects:
+            return self._shortest_chain(targets, tools, obs)
+        target = self.closest(targets, obs)
+        if target < 0:
+            return None
         # The tool: the object nearest the target among those the mover can move.
-        tool = self.closest(self.accepted_objects(movers[0], obs), obs, exclude=target,
-                            to=target)
+        tool = self.closest(tools, obs, exclude=target, to=target)
         return Binding(target=target, tool=tool) if tool >= 0 else None
+
+    def _shortest_chain(self, targets: np.ndarray, tools: np.ndarray, obs: np.ndarray
+                        ) -> Binding | None:
+        """The (target, tool) pair whose chain is shortest: the robot's way to the tool plus
+        the tool's way to the target (`chain_objects`); None when no two objects pair."""
+        robot = self.reader.entity_position(obs, 0)
+        where = {int(e): self.reader.entity_position(obs, int(e))
+                 for e in np.union1d(targets, tools)}
+        best, best_d = None, np.inf
+        for tool in tools:
+            reach = float(np.linalg.norm(where[int(tool)] - robot))
+            for target in targets:
+                if int(target) == int(tool):
+                    continue
+                d = reach + float(np.linalg.norm(where[int(target)] - where[int(tool)]))
+                if d < best_d:
+                    best, best_d = Binding(target=int(target), tool=int(tool)), d
+        return best
 
     def salient_goal(self, aff: Affordance, binding: Binding, obs: np.ndarray,
                      rng: np.random.Generator) -> np.ndarray | None:

@@ -472,6 +472,26 @@ def test_object_selection_takes_the_closest_object_p_a_accepts():
     assert (binding.target, binding.tool) == (3, 1)  # obj2, red, is no tool of the pusher's
 
 
+@pytest.mark.parametrize(("chain", "pair"), [(True, (2, 1)), (False, (1, 3))])
+def test_object_selection_through_a_tool_takes_the_shortest_chain(chain, pair):
+    """`chain_objects`: the (target, tool) pair whose chain — the robot's way to the tool plus
+    the tool's way to the target — is shortest: obj1 (0.4 m away) pushed into obj2 (1.4 m in
+    all), not obj3 pushed into obj2 (0.5 m apart, but 1.5 m away: 2 m), nor the closest
+    target obj1 with the only other green object, obj3 (2.6 m). Off: the closest target,
+    then the tool nearest it."""
+    room = Room(chain_objects=chain)
+    for name, xy in (("obj1", [0.4, 0.0]), ("obj2", [1.4, 0.0]), ("obj3", [1.4, 0.5])):
+        room.place(name, xy)
+    room.place("robot", [0.0, 0.0])
+    push = room.affordance(np.zeros(0, dtype=np.int64), (), inp=ROBOT_POSITION,
+                           out=TARGET_POSITION)
+    push.classifier = SimpleNamespace(n_positive=1, accepts=lambda f: f[:, 3] > 0.5)  # green
+    tool = room.affordance(np.zeros(0, dtype=np.int64), (), inp=TOOL_POSITION,
+                           out=TARGET_POSITION)
+    binding = room.learner.select_binding(tool, room.obs)
+    assert (binding.target, binding.tool) == pair
+
+
 def test_the_effective_share_of_goal_babbling_counts_the_fallbacks():
     from hadim_cli.runs import goal_babbling_share
 
