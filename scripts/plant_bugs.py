@@ -506,7 +506,7 @@ BUGS = (
         "if False:\n            return self._shortest_chain(",
         f"{STEPS}::test_object_selection_through_a_tool_takes_the_shortest_chain"),
     Bug("chain-objects-robot-way-forgotten", "hadim_cli/learner/explorer.py",
-        "reach = float(np.linalg.norm(where[int(tool)] - robot))", "reach = 0.0",
+        "reach = float(np.linalg.norm(where[tool] - robot))", "reach = 0.0",
         f"{STEPS}::test_object_selection_through_a_tool_takes_the_shortest_chain"),
     Bug("chain-objects-legacy-forgotten", "hadim_cli/config.py",
         '"k_choices": (), "chain_objects": False},', '"k_choices": ()},',

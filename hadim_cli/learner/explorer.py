@@ -129,9 +129,10 @@ class Learner:
         if not aff.has_target:
             return Binding()
         targets = self.accepted_objects(aff, obs)
+        if not targets.size:
+            return None
         if not aff.has_tool:
-            target = self.closest(targets, obs)
-            return Binding(target=target) if target >= 0 else None
+            return Binding(target=self.closest(targets, obs))
         movers = self.hierarchy.controllers(aff.input)
         if not movers:
             return None
@@ -139,8 +140,6 @@ class Learner:
         if self.config.chain_objects:
             return self._shortest_chain(targets, tools, obs)
         target = self.closest(targets, obs)
-        if target < 0:
-            return None
         # The tool: the object nearest the target among those the mover can move.
         tool = self.closest(tools, obs, exclude=target, to=target)
         return Binding(target=target, tool=tool) if tool >= 0 else None
@@ -149,18 +148,16 @@ class Learner:
                         ) -> Binding | None:
         """The (target, tool) pair whose chain is shortest: the robot's way to the tool plus
         the tool's way to the target (`chain_objects`); None when no two objects pair."""
-        robot = self.reader.entity_position(obs, 0)
         where = {int(e): self.reader.entity_position(obs, int(e))
                  for e in np.union1d(targets, tools)}
+        robot = self.reader.entity_position(obs, 0)
         best, best_d = None, np.inf
-        for tool in tools:
-            reach = float(np.linalg.norm(where[int(tool)] - robot))
-            for target in targets:
-                if int(target) == int(tool):
-                    continue
-                d = reach + float(np.linalg.norm(where[int(target)] - where[int(tool)]))
-                if d < best_d:
-                    best, best_d = Binding(target=int(target), tool=int(tool)), d
+        for tool in map(int, tools):
+            reach = float(np.linalg.norm(where[tool] - robot))
+            for target in map(int, targets):
+                d = reach + float(np.linalg.norm(where[target] - where[tool]))
+                if target != tool and d < best_d:
+                    best, best_d = Binding(target=target, tool=tool), d
         return best
 
     def salient_goal(self, aff: Affordance, binding: Binding, obs: np.ndarray,
