@@ -521,6 +521,25 @@ class PlannerConfig:
     pushes can shove the output further off than the remainder. Off: such a level chases
     every remainder (runs stored before keep it off)."""
 
+    line_stagings: bool = False
+    """Option, off: an object staged round another to the place it pushes from (the tool to
+    behind the target) goes in one leg to the nearest point further back on the push's own
+    line (from the other object through that place) whose straight way there clears every
+    object, then along that line to the place: it arrives moving the way it will push, and
+    its pusher makes one trip round it for the turn instead of one per leg. Off (or no such
+    point inside the room): round the object in the way by two waypoints on an arc, a leg
+    for each third of the turn. Evaluation only it lowered the robot-only share a little;
+    retrained, not (docs/notes.md, eighteenth session)."""
+
+    direct_remainders: bool = False
+    """Option, off: with `hold_relation`, the last stretch of a level whose input is another
+    object (a remainder shorter than `small_correction` steps) is pushed by the inverse
+    model's answer from where the input stands, not by pursuit of the line: near the goal
+    the pursuit's point one step ahead can lie as far sideways as forward, and its pusher's
+    trip for that sideways move is refused as a small remainder, which ended goals 5-6 cm
+    short with most of their budget left. Off: the pursuit to the end (docs/notes.md,
+    eighteenth session)."""
+
     skip_idle_repeats: bool = True
     """A primitive action that moved nothing (no value of the observation changed) is not
     asked again from the observation it left: the level asking gets nothing done, and gives

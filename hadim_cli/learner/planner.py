@@ -39,7 +39,14 @@ from hadim_cli.learner.navigation import (
 )
 from hadim_cli.learner.routes import Obstacles
 from hadim_cli.learner.spaces import ACTION, Property, Role, RoleSpace, SpaceReader
+from hadim_cli.world.layout import ROBOT
 
+LINE_STEP = 0.025
+"""Resolution (m) of `line_stagings`' search along the push's line."""
+LINE_REACH = 0.8
+"""How far back (m) on the push's line `line_stagings` looks for a point to stage from."""
+WALL_GAP = 0.02
+"""Room (m) `line_stagings` leaves between a wall and the object or its pusher."""
 IDLE_CHANGE = 1e-4
 """An action moved nothing when no value of the observation changed by more than this."""
 
@@ -389,6 +396,9 @@ class Planner:
             return None
         mover = self._entity(aff.input, b)
         if mover <= 0:
+            return None
+        if self.pc.direct_remainders and (float(np.linalg.norm(delta))
+                                          < self.pc.small_correction * self.step_size(aff)):
             return None
         for i, sl in _slices(aff):
             space, want = aff.contexts[i], needed[sl]
@@ -1048,7 +1058,8 @@ class Planner:
                    mover: int) -> list[np.ndarray]:
         """Go round the objects in the way (the object about to be pushed first of all, and
         any other: in `push-with-tool` touching the target directly fails) instead of
-        through them; at most `max_detours` detours."""
+        through them; at most `max_detours` detours. An object (not the robot) with
+        `line_stagings`: through a point on the push's line instead (`_back_on_line`)."""
         if driven.prop is not Property.POSITION or b.target < 0:
             return [goal]
         mover_entity = 0 if driven.role is Role.ROBOT else mover
@@ -1058,6 +1069,10 @@ class Planner:
         mover_radius = self.reader.entity_radius(obs, mover_entity)
         points: list[np.ndarray] = []
         start = self.reader.entity_position(obs, mover_entity)
+        if self.pc.line_stagings and mover_entity > 0:
+            back = self._back_on_line(start, goal, obs, obstacles, mover_radius, b.target)
+            if back is not None:
+                return back
         for _ in range(self.pc.max_detours):
             hit = self._first_obstacle(start, goal, obs, obstacles, mover_radius)
             if hit is None:
@@ -1072,6 +1087,38 @@ class Planner:
                 points.append(centre + radius * np.array([np.cos(ang), np.sin(ang)]))
             start = points[-1]
         return [*points, goal]
+
+    def _back_on_line(self, start: np.ndarray, goal: np.ndarray, obs: np.ndarray,
+                      obstacles: list[int], mover_radius: float, target: int
+                      ) -> list[np.ndarray] | None:
+        """`line_stagings`' way for an object from `start` to the place `goal` it pushes
+        `target` from: straight there if nothing is in the way; else through the nearest
+        point further back on the push's line (from `target`'s centre through `goal`), in
+        steps of `LINE_STEP` up to `LINE_REACH`, that lies clear of every object and whose
+        straight way from `start` clears them too, and from there along the line. None when
+        no such point leaves the object and its pusher behind it inside the room."""
+        if self._first_obstacle(start, goal, obs, obstacles, mover_radius) is None:
+            return [goal]
+        away = goal - self.reader.entity_position(obs, target)
+        length = float(np.linalg.norm(away))
+        if length < 1e-9:
+            return None
+        u = away / length
+        robot_r = self.reader.entity_radius(obs, 0)
+        half = np.asarray(self.reader.layout.space(ROBOT, Property.POSITION).high)
+        centres = [(self.reader.entity_position(obs, e), self._clearance(obs, e, mover_radius))
+                   for e in obstacles]
+        for back in np.arange(1, round(LINE_REACH / LINE_STEP) + 1) * LINE_STEP:
+            point = goal + back * u
+            pusher = point + (mover_radius + robot_r) * u
+            if (np.any(np.abs(point) > half - mover_radius - WALL_GAP)
+                    or np.any(np.abs(pusher) > half - robot_r - WALL_GAP)):
+                return None  # further back is further out of the room
+            if any(np.linalg.norm(point - c) < r for c, r in centres):
+                continue
+            if self._first_obstacle(start, point, obs, obstacles, mover_radius) is None:
+                return [point, goal]
+        return None
 
     def _first_obstacle(self, start: np.ndarray, goal: np.ndarray, obs: np.ndarray,
                         obstacles: list[int], mover_radius: float

@@ -135,8 +135,11 @@ def test_same_seed_same_weights() -> None:
 
 _CHILD = """
 import hashlib, json, sys
-import numpy as np
 sys.path[:0] = json.loads(sys.argv[1])
+import hadim_cli  # pins the numerical kernels before numpy is loaded, as in the parent
+import numpy as np
+import torch
+torch.set_num_threads(int(sys.argv[2]))  # as in the parent: sessions set 1 thread
 from tests.learner.test_classifier import trained
 s = trained(8).state()
 h = hashlib.sha256()
@@ -152,7 +155,8 @@ def test_same_seed_same_weights_across_processes() -> None:
     for k in sorted(s):
         h.update(k.encode())
         h.update(np.ascontiguousarray(s[k]).tobytes())
-    out = subprocess.run([sys.executable, "-c", _CHILD, json.dumps(sys.path)],
+    threads = str(torch.get_num_threads())  # earlier tests' sessions may have set it to 1
+    out = subprocess.run([sys.executable, "-c", _CHILD, json.dumps(sys.path), threads],
                          capture_output=True, text=True, check=True, timeout=120)
     assert out.stdout.strip() == h.hexdigest()
 

@@ -13,7 +13,7 @@ from hadim_cli.learner.frames import FramedModel, relation_frame
 from hadim_cli.learner.hierarchy import Hierarchy
 from hadim_cli.learner.models import LocalLinearModel
 from hadim_cli.learner.navigation import Place
-from hadim_cli.learner.planner import ROBOT_POSITION, Binding, Planner
+from hadim_cli.learner.planner import LINE_STEP, ROBOT_POSITION, Binding, Planner
 from hadim_cli.learner.spaces import ACTION, Property, Role, RoleSpace
 
 TARGET_ROBOT = RoleSpace(Role.TARGET, Property.POSITION, Role.ROBOT)
@@ -510,6 +510,82 @@ def test_a_detour_goes_round_objects_that_leave_no_way_between_them():
             assert np.linalg.norm(w - centre) >= radius + robot_r + planner.pc.approach_margin
 
 
+def _across(v: np.ndarray, u: np.ndarray) -> float:
+    """How far `v` lies off the line along the unit vector `u`."""
+    return float(v[0] * u[1] - v[1] * u[0])
+
+
+def _segment_distance(a: np.ndarray, b: np.ndarray, c: np.ndarray) -> float:
+    """Distance from `c` to the segment a → b."""
+    s = float(np.clip((c - a) @ (b - a) / ((b - a) @ (b - a)), 0.0, 1.0))
+    return float(np.linalg.norm(a + s * (b - a) - c))
+
+
+@pytest.mark.parametrize("on_line", [True, False])
+def test_a_tool_staged_round_the_target_goes_to_the_push_line_in_one_leg(on_line):
+    """`line_stagings`: the tool left of the target must stand below-left of it to push it up
+    and to the right (the bearing 252° from the target, as for the tool task's 72° points).
+    In one leg it goes to the nearest point further back on that push's line whose straight
+    way clears the target, then along the line: two legs, the second the push's own
+    direction. Off: round the target on an arc, three legs, none along the line."""
+    from dataclasses import replace
+
+    planner, obs, layout = _avoid_scene()  # target obj1 (radius 0.12) at (0.6, 0)
+    planner.pc = replace(planner.pc, line_stagings=on_line)
+    tool = layout.space("obj2", Property.POSITION).slice
+    obs[tool] = [0.2, 0.0]
+    centre = np.array([0.6, 0.0])
+    u = np.array([np.cos(np.deg2rad(252)), np.sin(np.deg2rad(252))])
+    goal = centre + 0.23 * u  # the tool against the target, behind it for the push
+    tool_as_target = RoleSpace(Role.TARGET, Property.POSITION)
+    points = planner._waypoints(tool_as_target, goal, obs, Binding(target=1, tool=2), 2)
+    clearance = 0.12 + 0.1 + planner.pc.approach_margin
+    np.testing.assert_allclose(points[-1], goal)
+    if not on_line:
+        assert len(points) == 3
+        for w in points[:-1]:
+            assert abs(_across(w - centre, u)) > 0.05  # off the line
+        return
+    assert len(points) == 2
+    point = points[0]
+    back = (point - centre) @ u
+    assert abs(_across(point - centre, u)) < 1e-9 and back > 0.23  # on the line, behind
+    # The nearest such point: its straight way from the tool clears the target, and one
+    # step nearer along the line it would not.
+    assert _segment_distance(np.array([0.2, 0.0]), point, centre) >= clearance
+    nearer = centre + (back - LINE_STEP) * u
+    assert (np.linalg.norm(nearer - centre) < clearance
+            or _segment_distance(np.array([0.2, 0.0]), nearer, centre) < clearance)
+    # Nothing in the way: straight there, either way.
+    obs[tool] = centre + 0.6 * u
+    assert len(planner._waypoints(tool_as_target, goal, obs, Binding(target=1, tool=2), 2)) == 1
+
+
+def test_a_staging_whose_push_line_leaves_the_room_goes_round_on_the_arc():
+    """`line_stagings` needs room behind the place for the tool and for its pusher behind
+    it: with the target 0.6 m from a wall, the nearest point further back on the line that
+    clears the target leaves room for the tool, not for the robot behind it, so the tool goes
+    round the target on the arc's waypoints instead. Away from the wall, the line."""
+    from dataclasses import replace
+
+    planner, obs, layout = _avoid_scene()
+    planner.pc = replace(planner.pc, line_stagings=True)
+    target = layout.space("obj1", Property.POSITION).slice
+    centre = np.array([0.6, -1.4])  # the wall at y = -2
+    obs[target] = centre
+    obs[layout.space("obj2", Property.POSITION).slice] = [0.2, -1.4]
+    u = np.array([np.cos(np.deg2rad(252)), np.sin(np.deg2rad(252))])
+    goal = centre + 0.23 * u
+    points = planner._waypoints(RoleSpace(Role.TARGET, Property.POSITION), goal, obs,
+                                Binding(target=1, tool=2), 2)
+    assert len(points) == 3
+    obs[target] = centre + [0.0, 0.3]
+    obs[layout.space("obj2", Property.POSITION).slice] = [0.2, -1.1]
+    points = planner._waypoints(RoleSpace(Role.TARGET, Property.POSITION), goal + [0.0, 0.3],
+                                obs, Binding(target=1, tool=2), 2)
+    assert len(points) == 2
+
+
 def _disc_push_model(rng: np.random.Generator, n: int = 1500) -> LocalLinearModel:
     """Pushes of a disc by a disc: the object moves along the line of centres by the robot's
     move onto that line (the relation: object minus robot, 0.25 m, any bearing)."""
@@ -556,6 +632,22 @@ def test_steering_keeps_the_contact_where_the_push_needs_it():
                                    np.array([False]), [0.1]) is None
 
 
+def _asked_in_a_step(planner: Planner, aff, b: Binding, delta: np.ndarray, want: np.ndarray,
+                     goal: np.ndarray, obs: np.ndarray, support_gap: float) -> np.ndarray:
+    """The input move one step of the tool level `aff` asks for, its relation 0.2 spreads off
+    `want` (within `realign`) and the inverse answer `support_gap` from the data."""
+    planner.context = lambda *args: np.zeros(2)
+    planner.reachable_relations = lambda a: np.array([True])
+    planner._spreads = lambda a: [0.1]
+    planner.support_gap = lambda *args: support_gap
+    planner.needed_context = lambda *args: want
+    planner._gap = lambda *args: 0.2
+    calls = []
+    planner.execute = lambda space, x, *args, **kw: calls.append(x) or 1
+    planner._one_step(aff, b, delta, SimpleNamespace(obs=obs), 80, 0, goal=goal)
+    return calls[0]
+
+
 def test_an_object_input_heads_for_where_it_must_be_when_the_output_is_at_its_goal():
     """`hold_relation`: while the tool's relation to the target is within `realign` of the
     needed one, the tool's move heads for its final place — the target's goal less the needed
@@ -564,6 +656,7 @@ def test_an_object_input_heads_for_where_it_must_be_when_the_output_is_at_its_go
     from dataclasses import replace
 
     planner, obs, _ = _avoid_scene()  # target obj1 at (0.6, 0), tool obj2 at (0.3, 0.5)
+    planner.step_size = lambda a: 0.1  # the steps asked are no remainder (0.05)
     planner.pc = replace(planner.pc, pursue_line=False)  # the final place itself
     tool_position = RoleSpace(Role.TOOL, Property.POSITION)
     target_tool = RoleSpace(Role.TARGET, Property.POSITION, Role.TOOL)
@@ -597,16 +690,7 @@ def test_an_object_input_heads_for_where_it_must_be_when_the_output_is_at_its_go
     assert planner._way_to_final_place(aff, b, delta, want, 0.2, goal, obs) is None
     planner.pc = saved
     # In a step of the level, that move is what the tool is asked for.
-    planner.context = lambda *args: np.zeros(2)
-    planner.reachable_relations = lambda a: np.array([True])
-    planner._spreads = lambda a: [0.1]
-    planner.support_gap = lambda *args: 1.0
-    planner.needed_context = lambda *args: want
-    planner._gap = lambda *args: 0.2
-    calls = []
-    planner.execute = lambda space, x, *args, **kw: calls.append(x) or 1
-    planner._one_step(aff, b, delta, SimpleNamespace(obs=obs), 80, 0, goal=goal)
-    assert np.allclose(calls[0], way)
+    assert np.allclose(_asked_in_a_step(planner, aff, b, delta, want, goal, obs, 1.0), way)
 
 
 def test_an_object_input_off_its_line_pursues_a_point_one_step_ahead_on_it():
@@ -618,6 +702,7 @@ def test_an_object_input_off_its_line_pursues_a_point_one_step_ahead_on_it():
     from dataclasses import replace
 
     planner, obs, layout = _avoid_scene()  # target obj1 at (0.6, 0)
+    planner.step_size = lambda a: 0.1  # the steps asked are no remainder (0.05)
     tool_position = RoleSpace(Role.TOOL, Property.POSITION)
     target_tool = RoleSpace(Role.TARGET, Property.POSITION, Role.TOOL)
     model = SimpleNamespace(n=100, context_dims=[2],
@@ -659,6 +744,7 @@ def test_an_object_input_nearer_than_needed_pursues_its_line_from_where_it_stand
     from dataclasses import replace
 
     planner, obs, layout = _avoid_scene()  # target obj1 at (0.6, 0)
+    planner.step_size = lambda a: 0.1  # the steps asked are no remainder (0.05)
     tool_position = RoleSpace(Role.TOOL, Property.POSITION)
     target_tool = RoleSpace(Role.TARGET, Property.POSITION, Role.TOOL)
     model = SimpleNamespace(n=100, context_dims=[2],
@@ -687,6 +773,44 @@ def test_an_object_input_nearer_than_needed_pursues_its_line_from_where_it_stand
     np.testing.assert_allclose(asked(), [0.08, 0.0], atol=1e-9)
     planner.pc = replace(planner.pc, near_pursuit=False)
     np.testing.assert_allclose(asked(), [0.01, 0.0], atol=1e-9)
+
+
+@pytest.mark.parametrize("direct", [True, False])
+def test_the_last_stretch_of_an_object_input_is_pushed_by_the_inverse_answer(direct):
+    """`direct_remainders`: 3 cm from its goal, with the tool 6 cm off the line behind the
+    target, pursuit of the line asked the tool for a move as far sideways as forward, which
+    its pusher refused as a small remainder (the goal ended 5-6 cm short). Shorter than
+    `small_correction` steps, the remainder is pushed by the inverse model's answer from
+    where the tool stands; off, the pursuit goes on to the end. A longer step still pursues
+    the line either way."""
+    from dataclasses import replace
+
+    planner, obs, layout = _avoid_scene()  # target obj1 at (0.6, 0)
+    planner.pc = replace(planner.pc, direct_remainders=direct)
+    planner.step_size = lambda a: 0.1  # small_correction 0.5: remainders under 5 cm
+    tool_position = RoleSpace(Role.TOOL, Property.POSITION)
+    target_tool = RoleSpace(Role.TARGET, Property.POSITION, Role.TOOL)
+    answer = np.array([0.03, -0.005])
+    model = SimpleNamespace(n=100, context_dims=[2],
+                            infer=lambda delta, c=None: SimpleNamespace(
+                                x=answer, y_predicted=delta.copy()))
+    aff = SimpleNamespace(id=6, model=model, contexts=(target_tool,), input=tool_position,
+                          output=TARGET_POSITION)
+    b = Binding(target=1, tool=2, avoid=1)
+    want, goal = np.array([0.3, 0.0]), np.array([0.63, 0.0])
+    behind = np.array([0.6, 0.0]) - planner.reader.offset_now(target_tool, want, obs, 1, 2)
+    obs[layout.space("obj2", Property.POSITION).slice] = behind + [0.0, 0.06]
+    small, long = np.array([0.03, 0.0]), np.array([0.08, 0.0])
+    assert planner._way_to_final_place(aff, b, long, want, 0.2, goal, obs) is not None
+    pursued = planner._way_to_final_place(aff, b, small, want, 0.2, goal, obs)
+    assert (pursued is None) == direct
+    # In a step of the level: the inverse answer, or the pursuit's move mostly sideways.
+    asked = _asked_in_a_step(planner, aff, b, small, want, goal, obs, 0.0)
+    if direct:
+        np.testing.assert_allclose(asked, answer)
+    else:
+        np.testing.assert_allclose(asked, pursued)
+        assert abs(pursued[1]) > abs(pursued[0])
 
 
 def _action_pusher(pose_places: bool) -> tuple[Planner, SimpleNamespace]:
