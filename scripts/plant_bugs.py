@@ -645,7 +645,7 @@ BUGS = (
         '"face_places": False}',
         "tests/test_config.py::test_a_run_stored_before_trips_were_searched_keeps_its_waypoints"),
     Bug("line-stagings-ignored", "hadim_cli/learner/planner.py",
-        "if self.pc.line_stagings and mover_entity > 0:", "if False:",
+        "if self.pc.line_stagings and mover_entity > 0 and not points:", "if False:",
         f"{PL}::test_a_tool_staged_round_the_target_goes_to_the_push_line_in_one_leg"),
     Bug("line-stagings-way-not-cleared", "hadim_cli/learner/planner.py",
         "            if self._first_obstacle(start, point, obs, obstacles, mover_radius) is None:\n"

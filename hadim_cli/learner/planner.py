@@ -1069,14 +1069,14 @@ class Planner:
         mover_radius = self.reader.entity_radius(obs, mover_entity)
         points: list[np.ndarray] = []
         start = self.reader.entity_position(obs, mover_entity)
-        if self.pc.line_stagings and mover_entity > 0:
-            back = self._back_on_line(start, goal, obs, obstacles, mover_radius, b.target)
-            if back is not None:
-                return back
         for _ in range(self.pc.max_detours):
             hit = self._first_obstacle(start, goal, obs, obstacles, mover_radius)
             if hit is None:
                 break
+            if self.pc.line_stagings and mover_entity > 0 and not points:
+                back = self._back_on_line(start, goal, obs, obstacles, mover_radius, b.target)
+                if back is not None:
+                    return back
             centre, clearance = hit
             a0 = np.arctan2(*(start - centre)[::-1])
             a1 = np.arctan2(*(goal - centre)[::-1])
@@ -1092,13 +1092,11 @@ class Planner:
                       obstacles: list[int], mover_radius: float, target: int
                       ) -> list[np.ndarray] | None:
         """`line_stagings`' way for an object from `start` to the place `goal` it pushes
-        `target` from: straight there if nothing is in the way; else through the nearest
-        point further back on the push's line (from `target`'s centre through `goal`), in
-        steps of `LINE_STEP` up to `LINE_REACH`, that lies clear of every object and whose
-        straight way from `start` clears them too, and from there along the line. None when
-        no such point leaves the object and its pusher behind it inside the room."""
-        if self._first_obstacle(start, goal, obs, obstacles, mover_radius) is None:
-            return [goal]
+        `target` from, when something is in the straight way: through the nearest point
+        further back on the push's line (from `target`'s centre through `goal`), in steps of
+        `LINE_STEP` up to `LINE_REACH`, that lies clear of every object and whose straight
+        way from `start` clears them too, and from there along the line. None when no such
+        point leaves the object and its pusher behind it inside the room."""
         away = goal - self.reader.entity_position(obs, target)
         length = float(np.linalg.norm(away))
         if length < 1e-9:
@@ -1106,15 +1104,15 @@ class Planner:
         u = away / length
         robot_r = self.reader.entity_radius(obs, 0)
         half = np.asarray(self.reader.layout.space(ROBOT, Property.POSITION).high)
-        centres = [(self.reader.entity_position(obs, e), self._clearance(obs, e, mover_radius))
-                   for e in obstacles]
+        discs = Obstacles(np.array([self.reader.entity_position(obs, e) for e in obstacles]),
+                          np.array([self._clearance(obs, e, mover_radius) for e in obstacles]))
         for back in np.arange(1, round(LINE_REACH / LINE_STEP) + 1) * LINE_STEP:
             point = goal + back * u
             pusher = point + (mover_radius + robot_r) * u
             if (np.any(np.abs(point) > half - mover_radius - WALL_GAP)
                     or np.any(np.abs(pusher) > half - robot_r - WALL_GAP)):
                 return None  # further back is further out of the room
-            if any(np.linalg.norm(point - c) < r for c, r in centres):
+            if discs.holds(point):
                 continue
             if self._first_obstacle(start, point, obs, obstacles, mover_radius) is None:
                 return [point, goal]
