@@ -4,11 +4,12 @@ from __future__ import annotations
 
 from typing import TYPE_CHECKING, Any
 
+import numpy as np
 from rich.console import Console
 from rich.table import Table
 
 if TYPE_CHECKING:  # the learner (and torch) only where H is rendered from a checkpoint
-    from hadim_cli.evaluation.runner import TaskResult
+    from hadim_cli.evaluation.runner import FirstPush, TaskResult
     from hadim_cli.session import Session
 
 
@@ -174,6 +175,18 @@ def render_timeline(console: Console, events: list) -> None:
     console.print(table)
 
 
+def first_push_summary(pushes: list[FirstPush]) -> str:
+    """One line of the medians of the points' `FirstPush` angles."""
+    def median(values: list[float]) -> str:
+        return f"{float(np.median(values)):.0f}°"
+
+    line = f"first pushes (median): pusher {median([f.pusher_off for f in pushes])} off the way"
+    bends = [f.robot_off for f in pushes if f.robot_off is not None]
+    if bends:
+        line += f", robot–tool bend {median(bends)}"
+    return line + f", object's move {median([f.move_off for f in pushes])} off"
+
+
 def render_eval(console: Console, result: TaskResult, iteration: int) -> None:
     """A row per point: where it went, the actions it used, the trips the planner took to a
     place and the actions that moved no object; the caption sums them over the task."""
@@ -185,6 +198,9 @@ def render_eval(console: Console, result: TaskResult, iteration: int) -> None:
         caption = (f"{sum(p.trips for p in counted) / len(counted):.1f} trips per point; "
                    f"{100 * sum(p.robot_only for p in counted) / actions:.0f} % of the "
                    f"{actions} actions moved no object")
+        pushes = [p.first_push for p in points if p.first_push is not None]
+        if pushes:
+            caption += "\n" + first_push_summary(pushes)
     table = Table(title=f"{result.task} at iteration {iteration}: score {result.score:.3f}",
                   caption=caption)
     for col in ("#", "target", "start", "final", "error", "actions", "trips", "robot only",

@@ -464,6 +464,30 @@ BUGS = (
         "- objects, axis=1)\n                                       < 1.0))",
         "tests/test_eval_diagnostics.py::test_an_action_counts_as_robot_only_unless_it_moves_"
         "an_object"),
+    Bug("first-push-overwritten", "hadim_cli/evaluation/runner.py",
+        "if self._pushed is not None and self.first_push is None:",
+        "if self._pushed is not None:",
+        "tests/test_eval_diagnostics.py::test_the_first_push_says_how_it_was_lined_up"),
+    Bug("first-push-read-after", "hadim_cli/evaluation/runner.py",
+        "robot_off = angle_between(pusher - at(before, 0), pushed - pusher)",
+        "robot_off = angle_between(pusher - at(after, 0), pushed - pusher)",
+        "tests/test_eval_diagnostics.py::test_the_first_push_through_a_tool_measures_the_"
+        "chain_s_bend"),
+    Bug("first-push-move-off-the-pusher", "hadim_cli/evaluation/runner.py",
+        "angle_between(moved, way), robot_off)",
+        "angle_between(moved, pushed - pusher), robot_off)",
+        "tests/test_eval_diagnostics.py::test_the_first_push_says_how_it_was_lined_up"),
+    Bug("trip-starts-from-the-end", "hadim_cli/evaluation/runner.py",
+        "shares = tuple(remaining_share(learner.reader.entity_position(o, entity), start, point)",
+        "shares = tuple(remaining_share(learner.reader.entity_position(actuator.obs, entity), "
+        "start, point)",
+        "tests/test_eval_diagnostics.py::test_trip_starts_are_the_goal_s_remaining_share_when_"
+        "each_trip_began"),
+    Bug("trip-starts-after-the-trip", "hadim_cli/learner/planner.py",
+        "self._count_trip(starting, before)\n                return done",
+        "self._count_trip(starting, actuator.obs)\n                return done",
+        "tests/test_eval_diagnostics.py::test_trip_starts_are_the_goal_s_remaining_share_when_"
+        "each_trip_began"),
     Bug("kernels-not-pinned", "hadim_cli/numerics.py",
         "        os.environ.setdefault(key, value)",
         "        pass",

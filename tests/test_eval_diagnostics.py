@@ -201,3 +201,101 @@ def test_an_action_counts_as_robot_only_unless_it_moves_an_object():
     assert actuator.robot_only == 2
     actuator.act(np.array([-1.0, -1.0]))  # backing off: obj1 at rest (`settle_time`) stays
     assert (actuator.used, actuator.robot_only) == (6, 3)
+
+
+def _pushing_world(objects):
+    """A world with `objects` (ObjectSpecs) first and fixed red discs along the far wall."""
+    from hadim_cli.config import WorldConfig
+    from hadim_cli.world.scene import ObjectSpec, Scene
+    from hadim_cli.world.world import World
+
+    cfg = WorldConfig()
+    far = [ObjectSpec(-1.5 + 0.4 * i, 1.6, 0.1, 0.2, (0.8, 0.2, 0.2), False)
+           for i in range(cfg.n_green + cfg.n_red - len(objects))]
+    world = World(cfg)
+    return world, world.reset(scene=Scene((*objects, *far)))
+
+
+def test_the_first_push_says_how_it_was_lined_up():
+    """`first_push`: unset while nothing moves the object; then the pusher's line off the
+    object's way to its point and the object's move off it, from the action that moved it."""
+    from hadim_cli.evaluation.runner import EvalActuator
+    from hadim_cli.world.scene import ObjectSpec
+
+    green = (0.2, 0.8, 0.2)
+    for bearing in (0.0, 60.0):
+        world, obs = _pushing_world([ObjectSpec(0.27, 0.0, 0.1, 0.2, green, True)])
+        point = np.array([0.27, 0.0]) + 0.4 * np.array([np.cos(np.radians(bearing)),
+                                                         np.sin(np.radians(bearing))])
+        actuator = EvalActuator(world, obs, 10, None)
+        actuator.watch_push(1, -1, point)
+        actuator.act(np.array([-1.0, -1.0]))   # backing away moves nothing
+        assert actuator.first_push is None
+        for _ in range(3):
+            actuator.act(np.array([1.0, 1.0]))  # straight into the object, along +x
+        push = actuator.first_push
+        assert push is not None and push.robot_off is None
+        assert push.pusher_off == pytest.approx(bearing, abs=1.0)
+        assert push.move_off == pytest.approx(bearing, abs=5.0)
+
+
+def test_the_first_push_through_a_tool_measures_the_chain_s_bend():
+    """With a tool, the pusher is the tool, and `robot_off` is the robot→tool line off the
+    tool→target line, read before the action that moved the target."""
+    from hadim_cli.evaluation.runner import EvalActuator
+    from hadim_cli.world.scene import ObjectSpec
+
+    green = (0.2, 0.8, 0.2)
+    bend = np.radians(20.0)
+    tool = np.array([0.255, 0.0])               # the robot at the origin, 5 mm behind it
+    target = tool + 0.205 * np.array([np.cos(bend), np.sin(bend)])
+    world, obs = _pushing_world([ObjectSpec(*target, 0.1, 0.2, green, True),
+                                 ObjectSpec(*tool, 0.1, 0.2, green, True)])
+    actuator = EvalActuator(world, obs, 10, "obj1")
+    actuator.watch_push(1, 2, target + np.array([0.4, 0.0]))   # the target's way: +x
+    actuator.act(np.array([1.0, 0.5]))          # an arc: the robot ends off the +x axis
+    push = actuator.first_push
+    assert push is not None
+    # Read off the scene before the action that moved the target.
+    assert push.robot_off == pytest.approx(20.0, abs=0.01)
+    assert push.pusher_off == pytest.approx(20.0, abs=0.01)
+
+
+def test_trip_starts_are_the_goal_s_remaining_share_when_each_trip_began(store):
+    """`trip_starts`: one share per trip, read off the observation the trip began from: 1.0
+    before the object moved, less once it was on its way."""
+    from hadim_cli import runs
+    from hadim_cli.evaluation.runner import evaluate, remaining_share
+
+    with runs.open_store(str(store), create=False) as st:
+        session = runs.restore_session(st, st.get_run("run-1"))
+    task = load_task("push-object")
+    seen = []
+    real = session.learner.planner._count_trip
+
+    def spy(starting, obs):
+        real(starting, obs)
+        if starting:
+            seen.append(obs.copy())
+
+    session.learner.planner._count_trip = spy
+    result = evaluate(session.learner, session.config.world, task, record=True)
+    assert sum(p.trips for p in result.points) == len(seen) > 0
+    shares = [s for p in result.points for s in p.trip_starts]
+    assert len(shares) == len(seen)
+    target = session.world.layout.entities.index(task.target)
+    starts = [np.asarray(p.start) for p, n in zip(result.points, (p.trips for p in result.points),
+                                                  strict=True) for _ in range(n)]
+    points = [p.target for p in result.points for _ in range(p.trips)]
+    want = [remaining_share(session.learner.reader.entity_position(o, target), s, pt)
+            for o, s, pt in zip(seen, starts, points, strict=True)]
+    assert shares == pytest.approx(want)
+    # Each trip began from an observation of its point's attempt, the one before the trip's
+    # first action: an action that served a placement.
+    recordings = [rec for rec, p in zip(result.recordings, result.points, strict=True)
+                  for _ in range(p.trips)]
+    for obs, rec in zip(seen, recordings, strict=True):
+        at = [j for j, o in enumerate(rec.observations[:-1]) if np.array_equal(o, obs)]
+        assert at, "a trip began from an observation the attempt never had"
+        assert any(label.startswith("place ") for label in rec.steps[at[0]].labels)
+    assert any(s == pytest.approx(1.0) for s in shares)

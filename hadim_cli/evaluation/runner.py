@@ -6,6 +6,7 @@ numbers and evaluation never writes to D, H or any generator of the learner.
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from dataclasses import asdict, dataclass, field
 
 import numpy as np
@@ -19,7 +20,24 @@ from hadim_cli.learner.explorer import Learner
 from hadim_cli.learner.navigation import ROBOT_HEADING
 from hadim_cli.learner.planner import Binding, Planner
 from hadim_cli.learner.spaces import Property, Role, RoleSpace
+from hadim_cli.world.layout import ObservationLayout
 from hadim_cli.world.world import World
+
+
+@dataclass(frozen=True)
+class FirstPush:
+    """Angles (degrees, 0-180) of the first action that moved the driven object: how far its
+    pusher stood off the line of the object's way to the point, and where the object went.
+    A pushed disc moves with its pusher only within a narrow cone (docs/algorithm.md): a
+    first push outside it sends the object off its way, and a trip must correct it."""
+
+    pusher_off: float
+    """The pusher→object line (the tool's with a tool, else the robot's) off the object's
+    way to the point, before the action."""
+    move_off: float
+    """The object's move off that way."""
+    robot_off: float | None = None
+    """With a tool: the robot→tool line off the tool→object line (the chain's bend)."""
 
 
 @dataclass(frozen=True)
@@ -41,6 +59,12 @@ class PointResult:
     robot_only: int | None = None
     """Actions that moved no object by `MOVED` (the robot driving, turning or blocked): the
     budget spent on getting somewhere rather than on pushing (None: not counted)."""
+    trip_starts: tuple[float, ...] = ()
+    """For each trip, the driven entity's distance to the point when the trip began, as a
+    share of its distance at the start: 1.0 for a trip before it moved (getting behind an
+    object, staging a tool), small shares for corrections near the end."""
+    first_push: FirstPush | None = None
+    """How the first action that moved the driven object was lined up (push tasks)."""
     pursuits: dict[str, int] = field(default_factory=dict)
     """Actions by what the planner pursued when it chose them, below the task's own goal:
     its chain of pursuits joined by " / ", outermost first (the goal's own affordance when
@@ -113,12 +137,19 @@ class EvalActuator:
         self.deviation = 0.0
         self._objects = world.layout.object_columns(Property.POSITION)
         self.robot_only = 0
+        self._pushed: tuple[int, int, np.ndarray] | None = None
+        self.first_push: FirstPush | None = None
 
     def follow(self, entity: int, start: np.ndarray, point: np.ndarray) -> None:
         """Measure `entity`'s largest distance from the segment start → point."""
         name = self.world.layout.entities[entity]
         self.line = (self.world.layout.space(name, Property.POSITION).slice,
                      np.asarray(start, float), np.asarray(point, float))
+
+    def watch_push(self, target: int, tool: int, point: np.ndarray) -> None:
+        """Measure how the first action that moves `target` (toward `point`, with `tool` as
+        its pusher when ≥ 0) is lined up (`first_push`)."""
+        self._pushed = (target, tool, np.asarray(point, float))
 
     @property
     def obs(self) -> np.ndarray:
@@ -131,7 +162,10 @@ class EvalActuator:
     def act(self, action: np.ndarray) -> np.ndarray:
         before = np.asarray(self.world.robot_pose()[:2])
         objects = self._obs[self._objects]
+        last = self._obs
         self._obs = self.world.step(action)
+        if self._pushed is not None and self.first_push is None:
+            self.first_push = first_push(self.world.layout, last, self._obs, *self._pushed)
         self.used += 1
         self.robot_only += bool(np.all(np.linalg.norm(self._obs[self._objects] - objects, axis=1)
                                        < MOVED))
@@ -167,11 +201,45 @@ def _turn_to(learner: Learner, heading: float, actuator: EvalActuator, budget: i
         learner.planner.reach(turner, Binding(), goal, actuator, budget)
 
 
+def angle_between(a: np.ndarray, b: np.ndarray) -> float:
+    """Angle (degrees, 0-180) between the vectors `a` and `b` (0 when either is null)."""
+    na, nb = float(np.linalg.norm(a)), float(np.linalg.norm(b))
+    if na < 1e-12 or nb < 1e-12:
+        return 0.0
+    return float(np.degrees(np.arccos(np.clip(float(a @ b) / (na * nb), -1.0, 1.0))))
+
+
+def first_push(layout: ObservationLayout, before: np.ndarray, after: np.ndarray,
+               target: int, tool: int, point: np.ndarray) -> FirstPush | None:
+    """`FirstPush` of the action from `before` to `after` when it moved `target` by `MOVED`
+    (None otherwise): its pusher is `tool` when ≥ 0, else the robot."""
+    def at(obs: np.ndarray, entity: int) -> np.ndarray:
+        return layout.get(obs, layout.entities[entity], Property.POSITION)
+
+    moved = at(after, target) - at(before, target)
+    if float(np.linalg.norm(moved)) < MOVED:
+        return None
+    pushed = at(before, target)
+    way = point - pushed
+    pusher = at(before, tool if tool >= 0 else 0)
+    robot_off = None
+    if tool >= 0:
+        robot_off = angle_between(pusher - at(before, 0), pushed - pusher)
+    return FirstPush(angle_between(pushed - pusher, way), angle_between(moved, way), robot_off)
+
+
 def segment_distance(p: np.ndarray, a: np.ndarray, b: np.ndarray) -> float:
     """Distance from point `p` to the segment a → b."""
     ab = b - a
     t = float(np.clip((p - a) @ ab / max(float(ab @ ab), 1e-12), 0.0, 1.0))
     return float(np.linalg.norm(p - (a + t * ab)))
+
+
+def remaining_share(position: np.ndarray, start: np.ndarray, point: Sequence[float]) -> float:
+    """The distance from `position` to `point` as a share of that from `start`."""
+    target = np.asarray(point, float)
+    return float(np.linalg.norm(target - position) / max(float(np.linalg.norm(target - start)),
+                                                          1e-12))
 
 
 def choose_affordance(learner: Learner, task: Task) -> Affordance | None:
@@ -217,11 +285,15 @@ def evaluate(learner: Learner, world_config: WorldConfig, task: Task,
         actuator = EvalActuator(world, obs, task.budget, task.target if task.tool else None,
                                 learner.planner, record)
         actuator.follow(entity, start, np.asarray(point))
+        if entity > 0:
+            actuator.watch_push(entity, tool, np.asarray(point))
         start_heading = _heading(world)
         if aff is not None:
             binding = Binding(target=target, tool=tool) if aff.has_target else Binding()
             learner.planner.reach(aff, binding, np.asarray(point), actuator, task.budget)
         trips = learner.planner.trips if aff is not None else 0
+        shares = tuple(remaining_share(learner.reader.entity_position(o, entity), start, point)
+                       for o in learner.planner.trip_starts) if aff is not None else ()
         final = learner.reader.entity_position(actuator.obs, entity).copy()
         error = 1.0 if actuator.touched else point_error(start, final, point)
         if task.headings is not None:
@@ -232,7 +304,7 @@ def evaluate(learner: Learner, world_config: WorldConfig, task: Task,
                                    tuple(map(float, final)), error, actuator.used,
                                    -1 if aff is None else aff.id, actuator.touched,
                                    actuator.path, trips, actuator.deviation,
-                                   actuator.robot_only,
+                                   actuator.robot_only, shares, actuator.first_push,
                                    dict(sorted(actuator.pursuits.items(),
                                                key=lambda kv: (-kv[1], kv[0])))))
         if record:

@@ -166,6 +166,9 @@ class Planner:
         self.trips = 0
         """Trips to a place (re-placements of the robot or of a tool) of the last goal: each
         counted once, when it starts after an action that was not a placement."""
+        self.trip_starts: list[np.ndarray] = []
+        """The observation each of those trips started from (read by evaluation: how far
+        the goal still was when it began)."""
         self._placed_for: frozenset[int] = frozenset()
         """Affordances whose placement the last primitive action served (a trip under way)."""
         self._idle: tuple[np.ndarray, np.ndarray] | None = None
@@ -205,6 +208,7 @@ class Planner:
         if depth == 0:
             self.navigator.forget()
             self.trips = 0
+            self.trip_starts = []
             self._placed_for = frozenset()
         self.stack.append(Pursuit(f"A{aff.id} {aff.output.name}", goal, b))
         try:
@@ -994,6 +998,7 @@ class Planner:
                 < self._avoid_distance(actuator.obs, b)):
             return -1
         starting = not self._placed_for  # the planner replans every action: a trip goes on
+        before = actuator.obs
         target_entity = sub_b.target if driven.role is not Role.ROBOT else -1
         waypoints = self._waypoints(driven, goal, actuator.obs, b, target_entity)
         space = aff.contexts[i]
@@ -1007,10 +1012,10 @@ class Planner:
             done = self.navigate(places, b, actuator, min(budget, self.config.goal_budget),
                                  near, search=self.pc.route_search)
             if done > 0:
-                self.trips += starting
+                self._count_trip(starting, before)
                 return done
             # The learned motion sees no way from here: the inverse model's way below.
-        self.trips += starting
+        self._count_trip(starting, before)
         for waypoint in waypoints:
             attempt = self.reach(sub, sub_b, waypoint, actuator,
                                  min(budget - used, self.config.goal_budget), depth + 1)
@@ -1018,6 +1023,12 @@ class Planner:
             if used >= budget or actuator.exhausted:
                 break
         return used
+
+    def _count_trip(self, starting: bool, obs: np.ndarray) -> None:
+        """Count a trip that began from the observation `obs`, when it is a new one."""
+        if starting:
+            self.trips += 1
+            self.trip_starts.append(obs)
 
     def _context_plans(self, aff: Affordance, b: Binding, needed: np.ndarray, obs: np.ndarray
                        ) -> Iterator[tuple[int, RoleSpace, RoleSpace, np.ndarray, Binding,
