@@ -488,6 +488,10 @@ BUGS = (
         "self._count_trip(starting, actuator.obs)\n                return done",
         "tests/test_eval_diagnostics.py::test_trip_starts_are_the_goal_s_remaining_share_when_"
         "each_trip_began"),
+    Bug("remaining-share-from-the-start", "hadim_cli/evaluation/metric.py",
+        "return float(np.linalg.norm(np.subtract(target, position))) / max(initial, 1e-12)",
+        "return float(np.linalg.norm(np.subtract(position, start))) / max(initial, 1e-12)",
+        "tests/test_evaluation.py::test_the_remaining_share_is_the_error_so_far_unclipped"),
     Bug("kernels-not-pinned", "hadim_cli/numerics.py",
         "        os.environ.setdefault(key, value)",
         "        pass",

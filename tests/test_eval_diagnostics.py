@@ -265,7 +265,8 @@ def test_trip_starts_are_the_goal_s_remaining_share_when_each_trip_began(store):
     """`trip_starts`: one share per trip, read off the observation the trip began from: 1.0
     before the object moved, less once it was on its way."""
     from hadim_cli import runs
-    from hadim_cli.evaluation.runner import evaluate, remaining_share
+    from hadim_cli.evaluation.metric import remaining_share
+    from hadim_cli.evaluation.runner import evaluate
 
     with runs.open_store(str(store), create=False) as st:
         session = runs.restore_session(st, st.get_run("run-1"))

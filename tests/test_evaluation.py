@@ -4,7 +4,7 @@ import numpy as np
 import pytest
 
 from hadim_cli.errors import HadimError
-from hadim_cli.evaluation.metric import distance_error, point_error, task_score
+from hadim_cli.evaluation.metric import distance_error, point_error, remaining_share, task_score
 from hadim_cli.evaluation.tasks import load_task, load_task_file, task_names
 
 
@@ -117,3 +117,11 @@ def test_a_tool_task_fails_every_point_the_robot_touches_the_target_in():
     assert all(p.contact_failed and p.error == 1.0 for p in through.points)
     assert all(p.actions < task.budget for p in through.points)  # stopped at the contact
     assert bindings[0] == ("robot.position", 2, -1) and bindings[-1] == ("tool.position", 2, 1)
+
+
+def test_the_remaining_share_is_the_error_so_far_unclipped():
+    """`remaining_share` (a trip's start in `trip_starts`): the point's error, not capped."""
+    assert remaining_share((0, 0), (0, 0), (1, 0)) == 1.0       # not moved
+    assert remaining_share((0.5, 0), (0, 0), (1, 0)) == pytest.approx(0.5)
+    assert remaining_share((1, 0.25), (0, 0), (1, 0)) == pytest.approx(0.25)
+    assert remaining_share((-1, 0), (0, 0), (1, 0)) == pytest.approx(2.0)  # pushed away

@@ -21,6 +21,14 @@ def point_error(start: Sequence[float], final: Sequence[float], target: Sequence
                           float(np.linalg.norm(np.subtract(target, final))))
 
 
+def remaining_share(position: Sequence[float], start: Sequence[float],
+                    target: Sequence[float]) -> float:
+    """The distance from `position` to `target` as a share of that from `start`: the point's
+    error so far, unclipped (an object pushed away reads more than 1)."""
+    initial = float(np.linalg.norm(np.subtract(target, start)))
+    return float(np.linalg.norm(np.subtract(target, position))) / max(initial, 1e-12)
+
+
 def task_score(errors: Sequence[float]) -> float:
     """1 − mean(error_i): doing nothing scores 0, reaching every point scores 1."""
     if len(errors) == 0:

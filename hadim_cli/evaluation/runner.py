@@ -6,14 +6,13 @@ numbers and evaluation never writes to D, H or any generator of the learner.
 
 from __future__ import annotations
 
-from collections.abc import Sequence
 from dataclasses import asdict, dataclass, field
 
 import numpy as np
 
 from hadim_cli.config import WorldConfig
 from hadim_cli.errors import HadimError
-from hadim_cli.evaluation.metric import heading_error, point_error, task_score
+from hadim_cli.evaluation.metric import heading_error, point_error, remaining_share, task_score
 from hadim_cli.evaluation.tasks import Task, check_task
 from hadim_cli.learner.affordance import Affordance
 from hadim_cli.learner.explorer import Learner
@@ -233,13 +232,6 @@ def segment_distance(p: np.ndarray, a: np.ndarray, b: np.ndarray) -> float:
     ab = b - a
     t = float(np.clip((p - a) @ ab / max(float(ab @ ab), 1e-12), 0.0, 1.0))
     return float(np.linalg.norm(p - (a + t * ab)))
-
-
-def remaining_share(position: np.ndarray, start: np.ndarray, point: Sequence[float]) -> float:
-    """The distance from `position` to `point` as a share of that from `start`."""
-    target = np.asarray(point, float)
-    return float(np.linalg.norm(target - position) / max(float(np.linalg.norm(target - start)),
-                                                          1e-12))
 
 
 def choose_affordance(learner: Learner, task: Task) -> Affordance | None:

@@ -163,12 +163,10 @@ class Planner:
         self.navigator = Navigator(hierarchy, reader, self.pc)
         self.stack: list[Pursuit] = []
         """What the planner is pursuing now, outermost first (read by episode recordings)."""
-        self.trips = 0
-        """Trips to a place (re-placements of the robot or of a tool) of the last goal: each
-        counted once, when it starts after an action that was not a placement."""
         self.trip_starts: list[np.ndarray] = []
-        """The observation each of those trips started from (read by evaluation: how far
-        the goal still was when it began)."""
+        """The observation each trip to a place (a re-placement of the robot or of a tool) of
+        the last goal started from: each counted once, when it starts after an action that
+        was not a placement (read by evaluation: how far the goal still was)."""
         self._placed_for: frozenset[int] = frozenset()
         """Affordances whose placement the last primitive action served (a trip under way)."""
         self._idle: tuple[np.ndarray, np.ndarray] | None = None
@@ -180,6 +178,11 @@ class Planner:
         self.tool_guide: ToolGuide | None = None
         """An exact stand-in for the tool level's decisions: the tool's next move for the
         target to reach a goal (`evaluation.exact`, evaluation only); None: learned."""
+
+    @property
+    def trips(self) -> int:
+        """Trips to a place of the last goal (`trip_starts`)."""
+        return len(self.trip_starts)
 
     # ------------------------------------------------------------------ reading the state
     def value(self, space: RoleSpace, obs: np.ndarray, b: Binding) -> np.ndarray:
@@ -207,7 +210,6 @@ class Planner:
         start = float(np.linalg.norm(goal - self.value(aff.output, actuator.obs, b)))
         if depth == 0:
             self.navigator.forget()
-            self.trips = 0
             self.trip_starts = []
             self._placed_for = frozenset()
         self.stack.append(Pursuit(f"A{aff.id} {aff.output.name}", goal, b))
@@ -1027,7 +1029,6 @@ class Planner:
     def _count_trip(self, starting: bool, obs: np.ndarray) -> None:
         """Count a trip that began from the observation `obs`, when it is a new one."""
         if starting:
-            self.trips += 1
             self.trip_starts.append(obs)
 
     def _context_plans(self, aff: Affordance, b: Binding, needed: np.ndarray, obs: np.ndarray
