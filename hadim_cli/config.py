@@ -568,6 +568,18 @@ class PlannerConfig:
     of the cone within which a pushed object keeps moving with its pusher (runs stored
     before keep it off)."""
 
+    convoy: bool = True
+    """With `hold_relation`: an object pushing another (the tool pushing the target) within
+    `realign` of its place is asked to move along the move wanted of the output, at the length
+    whose outcome its forward model predicts nearest that move (`Planner.straight_move`),
+    instead of pursuing the line behind the output; and the robot pushing it for that move
+    pushes along the move asked of the object, at the length its own forward model predicts
+    best. A pushed object moves with its pusher while robot, tool and target are bent by less
+    than about 10° (docs/algorithm.md); the pursuit's sideways part and the push level's
+    redundant inverse answers bent the chain 14° (median) at the target's first push, and the
+    target left its way by 10°. Off: the pursuit and the inverse answers (runs stored before
+    keep it off)."""
+
     def validate(self) -> None:
         for name in ("max_depth", "support_neighbours", "max_detours", "navigation_grid",
                      "route_depth", "route_beam"):
@@ -747,7 +759,7 @@ LEGACY_DEFAULTS: dict[str, dict[str, Any]] = {
                 "near_pursuit": False, "route_search": False, "spare_stagings": False,
                 "pusher_contacts": False, "skip_idle_repeats": False,
                 "drifting_places": False, "face_places": False,
-                "mirrored_relations": False},
+                "mirrored_relations": False, "convoy": False},
 }
 """Keys added after runs were first stored, with the value that reproduces what a run stored
 without them did (its defaults then): a stored run restores the learner it trained (the

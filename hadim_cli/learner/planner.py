@@ -49,6 +49,9 @@ WALL_GAP = 0.02
 """Room (m) `line_stagings` leaves between a wall and the object or its pusher."""
 IDLE_CHANGE = 1e-4
 """An action moved nothing when no value of the observation changed by more than this."""
+STRAIGHT_LENGTHS = np.array([0.25, 0.375, 0.5, 0.625, 0.75, 0.875, 1.0, 1.25, 1.5, 2.0])
+"""`convoy`'s lengths of a straight move, in units of the larger of the inverse model's
+answer and the outcome wanted (`Planner.straight_move`)."""
 
 
 class Actuator(Protocol):
@@ -169,6 +172,9 @@ class Planner:
         was not a placement (read by evaluation: how far the goal still was)."""
         self._placed_for: frozenset[int] = frozenset()
         """Affordances whose placement the last primitive action served (a trip under way)."""
+        self._convoy_output = -1
+        """While a `convoy` move of an object is executed: the entity that object pushes (the
+        target, for the tool); -1 otherwise."""
         self._idle: tuple[np.ndarray, np.ndarray] | None = None
         """(the action, the observation after it) when the last primitive action moved
         nothing (`skip_idle_repeats`)."""
@@ -291,7 +297,10 @@ class Planner:
                 return used
         if progress <= 0.0:
             return -1
-        return self.execute(aff.input, here.x, b, actuator, budget, depth, exclude=aff.id)
+        x = here.x
+        if self._in_convoy(aff, b):
+            x = self.straight_move(aff, delta, c, x)
+        return self.execute(aff.input, x, b, actuator, budget, depth, exclude=aff.id)
 
     def _from_needed(self, aff: Affordance, b: Binding, delta: np.ndarray, c: np.ndarray,
                      x: np.ndarray, progress: float, relations: np.ndarray,
@@ -315,6 +324,9 @@ class Planner:
         way = self._way_to_final_place(aff, b, delta, near if self.pc.near_pursuit
                                        else needed, off, goal, obs)
         if way is not None:
+            if self.pc.convoy:
+                return self._convoy_step(aff, b, self.straight_move(aff, delta, c, x),
+                                         actuator, budget, depth)
             return self.execute(aff.input, way, b, actuator, budget, depth, exclude=aff.id)
         # A trip under way goes on until it arrives: replanning every action, a trip
         # given up as soon as the relation was back within `realign` left the robot
@@ -343,6 +355,39 @@ class Planner:
             if used > 0:
                 return used
         return None
+
+    def straight_move(self, aff: Affordance, delta: np.ndarray, c: np.ndarray,
+                      x: np.ndarray) -> np.ndarray:
+        """`convoy`'s move of `aff`'s input: along `delta`, the outcome wanted, at the length
+        (`STRAIGHT_LENGTHS` of the larger of |x|, the inverse model's answer, and |delta|)
+        whose outcome `aff`'s forward model predicts nearest `delta` in the context `c`. Many
+        inputs give one outcome — a robot driving 0.14 m diagonally past an object's back
+        nudges it 3 cm along the line of centres, as a straight 3 cm push does — and the
+        inverse answer is whichever the model rates best by a millimetre; the straight one
+        keeps a chain of pushes lined up."""
+        length = max(float(np.linalg.norm(x)), float(np.linalg.norm(delta)))
+        way = delta / max(float(np.linalg.norm(delta)), 1e-12)
+        moves = (length * STRAIGHT_LENGTHS)[:, None] * way[None]
+        y = aff.model.predict(moves, np.repeat(c[None], moves.shape[0], 0) if c.size else None)
+        return moves[int(np.argmin(np.linalg.norm(y - delta, axis=1)))].copy()
+
+    def _convoy_step(self, aff: Affordance, b: Binding, move: np.ndarray, actuator: Actuator,
+                     budget: int, depth: int) -> int:
+        """Execute `convoy`'s `move` of `aff`'s input object, its pusher knowing the entity
+        it pushes through that object (`_in_convoy`)."""
+        outer, self._convoy_output = self._convoy_output, self._entity(aff.output, b)
+        try:
+            return self.execute(aff.input, move, b, actuator, budget, depth, exclude=aff.id)
+        finally:
+            self._convoy_output = outer
+
+    def _in_convoy(self, aff: Affordance, b: Binding) -> bool:
+        """Whether `aff` is the robot pushing an object for a `convoy` move of it: the entity
+        that object pushes is the one `b` says to avoid. Staging the same object round that
+        entity is no convoy (its pushes keep the inverse answers: pushed straight too, the
+        tool task's robot-only share rose from 62 to 65 %)."""
+        return (self._convoy_output >= 0 and b.avoid == self._convoy_output
+                and aff.input == ROBOT_POSITION and aff.output.role is not Role.ROBOT)
 
     def _unfaced(self, aff: Affordance, b: Binding, delta: np.ndarray, needed: np.ndarray,
                  obs: np.ndarray) -> np.ndarray | None:

@@ -657,7 +657,8 @@ def test_an_object_input_heads_for_where_it_must_be_when_the_output_is_at_its_go
 
     planner, obs, _ = _avoid_scene()  # target obj1 at (0.6, 0), tool obj2 at (0.3, 0.5)
     planner.step_size = lambda a: 0.1  # the steps asked are no remainder (0.05)
-    planner.pc = replace(planner.pc, pursue_line=False)  # the final place itself
+    # The final place itself, not the pursuit of the line nor the convoy's move along the step.
+    planner.pc = replace(planner.pc, pursue_line=False, convoy=False)
     tool_position = RoleSpace(Role.TOOL, Property.POSITION)
     target_tool = RoleSpace(Role.TARGET, Property.POSITION, Role.TOOL)
     step = np.array([0.08, 0.0])
@@ -763,6 +764,7 @@ def test_an_object_input_nearer_than_needed_pursues_its_line_from_where_it_stand
     planner._spreads = lambda a: [0.1]
     planner.support_gap = lambda *args: 1.0
     planner.needed_context = lambda *args: want
+    planner.pc = replace(planner.pc, convoy=False)  # the pursuit, not the convoy's move
 
     def asked() -> np.ndarray:
         calls = []
@@ -786,7 +788,7 @@ def test_the_last_stretch_of_an_object_input_is_pushed_by_the_inverse_answer(dir
     from dataclasses import replace
 
     planner, obs, layout = _avoid_scene()  # target obj1 at (0.6, 0)
-    planner.pc = replace(planner.pc, direct_remainders=direct)
+    planner.pc = replace(planner.pc, direct_remainders=direct, convoy=False)
     planner.step_size = lambda a: 0.1  # small_correction 0.5: remainders under 5 cm
     tool_position = RoleSpace(Role.TOOL, Property.POSITION)
     target_tool = RoleSpace(Role.TARGET, Property.POSITION, Role.TOOL)
@@ -1263,3 +1265,91 @@ def test_mirror_images_reflect_outcomes_relations_and_headings_and_keep_sizes():
     absolute = SimpleNamespace(model=SimpleNamespace(context_dims=[1, 2]), output=TARGET_POSITION,
                                contexts=(RADIUS, TARGET_POSITION))
     assert Planner._mirrored(absolute, ctx[:, :3], y, np.array([0.3, 0.0])) is None
+
+
+def _tool_level(answer: np.ndarray, predict) -> SimpleNamespace:
+    """A tool level (`tool.position → target.position | target-tool`) whose inverse model
+    answers `answer` for any outcome (predicting it exactly) and whose forward model is
+    `predict(moves, contexts)`."""
+    target_tool = RoleSpace(Role.TARGET, Property.POSITION, Role.TOOL)
+    model = SimpleNamespace(n=100, context_dims=[2], predict=predict,
+                            infer=lambda delta, c=None: SimpleNamespace(
+                                x=answer.copy(), y_predicted=delta.copy()))
+    return SimpleNamespace(id=6, model=model, contexts=(target_tool,),
+                           input=RoleSpace(Role.TOOL, Property.POSITION), output=TARGET_POSITION)
+
+
+def test_a_convoy_moves_the_tool_along_the_targets_way_and_tells_its_pusher():
+    """`convoy`: a tool 6 cm off the line behind the target, within `realign`, is asked to
+    move along the target's step — not back onto the line, as the pursuit asks — at the length
+    whose outcome its forward model predicts nearest the step (the target moves 0.6 of the
+    tool's move: 0.1 m for a 6 cm step, not the inverse answer's 8 cm). While that move is
+    executed, the planner knows the entity the tool pushes (its pusher pushes straight);
+    after it, no longer. Off: the pursuit's move, 14° and more off the target's way."""
+    from dataclasses import replace
+
+    planner, obs, layout = _avoid_scene()  # target obj1 at (0.6, 0), radius 0.12
+    planner.step_size = lambda a: 0.1  # the steps asked are no remainder
+    aff = _tool_level(np.array([0.08, 0.0]), lambda x, c: 0.6 * x)
+    b = Binding(target=1, tool=2, avoid=1)
+    want, goal = np.array([0.3, 0.0]), np.array([1.2, 0.3])
+    way = (goal - [0.6, 0.0]) / np.linalg.norm(goal - [0.6, 0.0])
+    behind = [0.6, 0.0] - planner.reader.offset_now(aff.contexts[0], want, obs, 1, 2)
+    obs[layout.space("obj2", Property.POSITION).slice] = behind + [0.0, -0.06]
+    planner.context = lambda *args: np.zeros(2)
+    planner.reachable_relations = lambda a: np.array([True])
+    planner._spreads = lambda a: [0.1]
+    planner.support_gap = lambda *args: 1.0
+    planner.needed_context = lambda *args: want
+    planner._gap = lambda *args: 0.2
+
+    def asked() -> tuple[np.ndarray, int]:
+        calls = []
+        planner.execute = lambda space, x, *args, **kw: calls.append(
+            (x, planner._convoy_output)) or 1
+        planner._one_step(aff, b, 0.06 * way, SimpleNamespace(obs=obs), 80, 0, goal=goal)
+        return calls[0]
+
+    move, pushed = asked()
+    np.testing.assert_allclose(move, 0.1 * way, atol=1e-12)
+    assert pushed == 1 and planner._convoy_output == -1
+    planner.pc = replace(planner.pc, convoy=False)
+    move, pushed = asked()
+    assert pushed == -1
+    assert np.degrees(np.arccos(move @ way / np.linalg.norm(move))) > 14.0
+
+
+def test_the_robot_pushes_straight_in_a_convoy_and_by_the_inverse_answer_elsewhere():
+    """`convoy`: the robot at its place behind the tool, asked to move it 3 cm along +x for a
+    convoy move of the tool into the target, pushes along +x at the length its forward model
+    predicts best (the tool moves half the robot's move: 5.3 cm, the nearest of the lengths it
+    weighs to 6) — not the inverse answer, a drive 0.14 m diagonally past the tool's back that
+    the model rates as good. Staging the tool round the same target (no convoy move), or a
+    convoy through another entity, keeps the inverse answer."""
+    from hadim_cli.learner.planner import STRAIGHT_LENGTHS
+
+    planner = _planner()
+    answer = np.array([0.1, 0.1])
+    model = SimpleNamespace(n=100, context_dims=[2], predict=lambda x, c: 0.5 * x,
+                            infer=lambda delta, c=None: SimpleNamespace(
+                                x=answer.copy(), y_predicted=delta.copy()))
+    aff = SimpleNamespace(id=3, input=ROBOT_POSITION, output=TARGET_POSITION,
+                          contexts=(TARGET_ROBOT,), model=model)
+    b = Binding(target=2, avoid=1)  # the tool, pushed as a target; the target, to avoid
+    planner.context = lambda *args: np.zeros(2)
+    planner.reachable_relations = lambda a: np.array([True])
+    planner._from_needed = lambda *args: None  # at its place: it pushes from here
+
+    def pushed(convoy_output: int) -> np.ndarray:
+        planner._convoy_output = convoy_output
+        calls = []
+        planner.execute = lambda space, x, *args, **kw: calls.append(x) or 1
+        planner._one_step(aff, b, np.array([0.03, 0.0]), SimpleNamespace(obs=None), 80, 1)
+        return calls[0]
+
+    length = np.hypot(0.1, 0.1) * STRAIGHT_LENGTHS
+    best = length[int(np.argmin(np.abs(0.5 * length - 0.03)))]
+    assert np.isclose(best, 0.375 * np.hypot(0.1, 0.1))
+    np.testing.assert_allclose(pushed(1), [best, 0.0], atol=1e-12)
+    np.testing.assert_allclose(pushed(-1), answer)
+    np.testing.assert_allclose(pushed(3), answer)
