@@ -307,7 +307,8 @@ class Planner:
                      actuator: Actuator, budget: int, depth: int, remaining: float,
                      spare_trips: bool, goal: np.ndarray | None) -> int | None:
         """`_one_step` for an affordance with a relation the planner can drive: the move
-        toward the final place (`hold_relation`), a trip to the needed relation, a steered
+        toward the final place (`hold_relation`; where it applies, with `convoy`, the
+        straight move along `delta` instead), a trip to the needed relation, a steered
         push, or the end of a trip's turn to its heading (`face_places`). Returns actions
         used, -1 when nothing can be done, None to push from here with the inverse answer
         `x` (`progress`: its predicted share of `delta`)."""
