@@ -199,6 +199,10 @@ def render_eval(console: Console, result: TaskResult, iteration: int) -> None:
                    f"{100 * sum(p.robot_only for p in counted) / actions:.0f} % of the "
                    f"{actions} actions moved no object")
         pushes = [p.first_push for p in points if p.first_push is not None]
+        moves = sum(p.driven_moves for p in points if p.first_push is not None)
+        if moves:
+            path = sum(p.driven_path for p in points if p.first_push is not None)
+            caption += f"; a push moved the object {100 * path / moves:.1f} cm"
         if pushes:
             caption += "\n" + first_push_summary(pushes)
     table = Table(title=f"{result.task} at iteration {iteration}: score {result.score:.3f}",

@@ -464,6 +464,11 @@ BUGS = (
         "- objects, axis=1)\n                                       < 1.0))",
         "tests/test_eval_diagnostics.py::test_an_action_counts_as_robot_only_unless_it_moves_"
         "an_object"),
+    Bug("push-length-every-action", "hadim_cli/evaluation/runner.py",
+        "            if moved >= MOVED:\n                self.driven_moves += 1",
+        "            if True:\n                self.driven_moves += 1",
+        "tests/test_eval_diagnostics.py::test_a_push_length_is_the_driven_object_s_travel_per_"
+        "action_that_moved_it"),
     Bug("first-push-overwritten", "hadim_cli/evaluation/runner.py",
         "if self._pushed is not None and self.first_push is None:",
         "if self._pushed is not None:",

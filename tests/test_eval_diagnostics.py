@@ -203,6 +203,31 @@ def test_an_action_counts_as_robot_only_unless_it_moves_an_object():
     assert (actuator.used, actuator.robot_only) == (6, 3)
 
 
+def test_a_push_length_is_the_driven_object_s_travel_per_action_that_moved_it():
+    """`driven_moves` / `driven_path`: the actions that moved the followed object and how far
+    it went over them. A turn on the spot and a backing off move it not; each push does, and
+    its travel is the object's displacement (three straight pushes: their sum is the net)."""
+    from hadim_cli.evaluation.runner import EvalActuator
+    from hadim_cli.world.layout import Property
+    from hadim_cli.world.scene import ObjectSpec
+
+    world, obs = _pushing_world([ObjectSpec(0.27, 0.0, 0.1, 0.2, (0.2, 0.8, 0.2), True)])
+    where = world.layout.space("obj1", Property.POSITION).slice
+    start = obs[where].copy()
+    actuator = EvalActuator(world, obs, 10, None)
+    actuator.follow(1, start, np.array([1.0, 0.0]))
+    actuator.act(np.array([-1.0, 1.0]))   # a turn on the spot
+    actuator.act(np.array([1.0, -1.0]))   # back
+    assert (actuator.driven_moves, actuator.driven_path) == (0, 0.0)
+    for _ in range(3):                    # into obj1, which moves
+        actuator.act(np.array([1.0, 1.0]))
+    actuator.act(np.array([-1.0, -1.0]))  # backing off: obj1 stays
+    assert actuator.driven_moves == 3
+    travel = float(np.linalg.norm(actuator.obs[where] - start))
+    assert travel > 0.1
+    assert abs(actuator.driven_path - travel) < 0.005
+
+
 def _pushing_world(objects):
     """A world with `objects` (ObjectSpecs) first and fixed red discs along the far wall."""
     from hadim_cli.config import WorldConfig

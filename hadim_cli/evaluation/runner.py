@@ -71,6 +71,12 @@ class PointResult:
     A4 target.position / place target-robot for A4 / navigate robot.position`: the robot
     driving to push the tool into place), most actions first. Where the budget went, level
     by level."""
+    driven_moves: int = 0
+    """Actions that moved the driven entity (the task's object, or the robot) by `MOVED`."""
+    driven_path: float = 0.0
+    """How far (m) the driven entity moved, summed over those actions: per action that moved
+    it, the length of a push. With the same trips, longer pushes leave a larger share of the
+    actions moving no object (`robot_only`)."""
 
 
 @dataclass(frozen=True)
@@ -136,11 +142,14 @@ class EvalActuator:
         self.deviation = 0.0
         self._objects = world.layout.object_columns(Property.POSITION)
         self.robot_only = 0
+        self.driven_moves = 0
+        self.driven_path = 0.0
         self._pushed: tuple[int, int, np.ndarray] | None = None
         self.first_push: FirstPush | None = None
 
     def follow(self, entity: int, start: np.ndarray, point: np.ndarray) -> None:
-        """Measure `entity`'s largest distance from the segment start → point."""
+        """Measure `entity`'s largest distance from the segment start → point, and the
+        actions that move it and how far (`driven_moves`, `driven_path`)."""
         name = self.world.layout.entities[entity]
         self.line = (self.world.layout.space(name, Property.POSITION).slice,
                      np.asarray(start, float), np.asarray(point, float))
@@ -173,6 +182,10 @@ class EvalActuator:
             where, a, b = self.line
             pos = self._obs[where]
             self.deviation = max(self.deviation, segment_distance(pos, a, b))
+            moved = float(np.linalg.norm(pos - last[where]))
+            if moved >= MOVED:
+                self.driven_moves += 1
+                self.driven_path += moved
         if self.planner is not None:
             stack = self.planner.stack
             labels = [p.label for p in stack]
@@ -298,7 +311,8 @@ def evaluate(learner: Learner, world_config: WorldConfig, task: Task,
                                    actuator.path, trips, actuator.deviation,
                                    actuator.robot_only, shares, actuator.first_push,
                                    dict(sorted(actuator.pursuits.items(),
-                                               key=lambda kv: (-kv[1], kv[0])))))
+                                               key=lambda kv: (-kv[1], kv[0]))),
+                                   actuator.driven_moves, actuator.driven_path))
         if record:
             recordings.append(Recording(task.name, tuple(map(float, point)),
                                         np.stack(actuator.observations), tuple(actuator.steps),
