@@ -198,13 +198,13 @@ def render_eval(console: Console, result: TaskResult, iteration: int) -> None:
         caption = (f"{sum(p.trips for p in counted) / len(counted):.1f} trips per point; "
                    f"{100 * sum(p.robot_only for p in counted) / actions:.0f} % of the "
                    f"{actions} actions moved no object")
-        pushes = [p.first_push for p in points if p.first_push is not None]
-        moves = sum(p.driven_moves for p in points if p.first_push is not None)
+        pushed = [p for p in points if p.first_push is not None]  # push tasks' moved objects
+        moves = sum(p.driven_moves for p in pushed)
         if moves:
-            path = sum(p.driven_path for p in points if p.first_push is not None)
+            path = sum(p.driven_path for p in pushed)
             caption += f"; a push moved the object {100 * path / moves:.1f} cm"
-        if pushes:
-            caption += "\n" + first_push_summary(pushes)
+        if pushed:
+            caption += "\n" + first_push_summary([p.first_push for p in pushed])
     table = Table(title=f"{result.task} at iteration {iteration}: score {result.score:.3f}",
                   caption=caption)
     for col in ("#", "target", "start", "final", "error", "actions", "trips", "robot only",

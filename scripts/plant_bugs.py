@@ -693,7 +693,7 @@ BUGS = (
         "if False and (float(np.linalg.norm(delta))",
         f"{PL}::test_the_last_stretch_of_an_object_input_is_pushed_by_the_inverse_answer"),
     Bug("convoy-pursues-the-line", "hadim_cli/learner/planner.py",
-        "            if self.pc.convoy:\n", "            if False:\n",
+        "if self.pc.convoy and self._held_relation(", "if False and self._held_relation(",
         f"{PL}::test_a_convoy_moves_the_tool_along_the_targets_way_and_tells_its_pusher"),
     Bug("convoy-pusher-not-told", "hadim_cli/learner/planner.py",
         "outer, self._convoy_output = self._convoy_output, self._entity(aff.output, b)",

@@ -322,12 +322,12 @@ class Planner:
         needed = self.needed_context(aff, delta, c, relations | self._poses(aff))
         near = self._as_near(aff, c, needed, relations)
         off = self._gap(aff, spreads, c, near, relations)
+        if self.pc.convoy and self._held_relation(aff, b, delta, off, goal) is not None:
+            return self._convoy_step(aff, b, self.straight_move(aff, delta, c, x), actuator,
+                                     budget, depth)
         way = self._way_to_final_place(aff, b, delta, near if self.pc.near_pursuit
                                        else needed, off, goal, obs)
         if way is not None:
-            if self.pc.convoy:
-                return self._convoy_step(aff, b, self.straight_move(aff, delta, c, x),
-                                         actuator, budget, depth)
             return self.execute(aff.input, way, b, actuator, budget, depth, exclude=aff.id)
         # A trip under way goes on until it arrives: replanning every action, a trip
         # given up as soon as the relation was back within `realign` left the robot
@@ -444,31 +444,43 @@ class Planner:
         object from 0.966 to 0.938 and the tool task from 0.78 to 0.57 (ten learners,
         evaluation only); it turns and drives at will, while an object changes its
         direction only through a trip of its pusher round it."""
+        held = self._held_relation(aff, b, delta, off, goal)
+        if held is None:
+            return None
+        space, sl = aff.contexts[held[0]], held[1]
+        offset_now = self.reader.offset_now(space, needed[sl], obs, b.target, b.tool)
+        position = self.reader.entity_position(obs, self._entity(aff.input, b))
+        step = float(np.linalg.norm(aff.model.infer(delta, needed).x))
+        if self.pc.pursue_line:
+            # Pure pursuit of the line the input must push along: from where it stands in the
+            # needed relation to the output now, toward the goal.
+            behind = self.value(aff.output, obs, b) - offset_now
+            u = delta / max(float(np.linalg.norm(delta)), 1e-12)
+            along = float((position - behind) @ u)
+            way = behind + u * (min(along, 0.0) + step) - position
+        else:
+            way = goal - offset_now - position
+        length = float(np.linalg.norm(way))
+        return way if length <= step else way * (step / max(length, 1e-12))
+
+    def _held_relation(self, aff: Affordance, b: Binding, delta: np.ndarray, off: float,
+                       goal: np.ndarray | None) -> tuple[int, slice] | None:
+        """Whether `hold_relation` decides `aff`'s next move (`_way_to_final_place`, or with
+        `convoy` the straight move): (the index, the columns) of the context of `aff` that
+        relates its output to its input, an object pushed by another affordance, with the
+        relation within `realign` and a goal; None otherwise (and with `direct_remainders`,
+        for a remainder shorter than `small_correction` steps)."""
         if not self.pc.hold_relation or goal is None or off > self.pc.realign:
             return None
-        mover = self._entity(aff.input, b)
-        if mover <= 0:
+        if self._entity(aff.input, b) <= 0:
             return None
         if self.pc.direct_remainders and (float(np.linalg.norm(delta))
                                           < self.pc.small_correction * self.step_size(aff)):
             return None
         for i, sl in _slices(aff):
-            space, want = aff.contexts[i], needed[sl]
+            space = aff.contexts[i]
             if space.role is aff.output.role and space.relative_to is aff.input.role:
-                offset_now = self.reader.offset_now(space, want, obs, b.target, b.tool)
-                position = self.reader.entity_position(obs, mover)
-                step = float(np.linalg.norm(aff.model.infer(delta, needed).x))
-                if self.pc.pursue_line:
-                    # Pure pursuit of the line the input must push along: from where it stands
-                    # in the needed relation to the output now, toward the goal.
-                    behind = self.value(aff.output, obs, b) - offset_now
-                    u = delta / max(float(np.linalg.norm(delta)), 1e-12)
-                    along = float((position - behind) @ u)
-                    way = behind + u * (min(along, 0.0) + step) - position
-                else:
-                    way = goal - offset_now - position
-                length = float(np.linalg.norm(way))
-                return way if length <= step else way * (step / max(length, 1e-12))
+                return i, sl
         return None
 
     def _steer_by_model(self, aff: Affordance, delta: np.ndarray, c: np.ndarray,
