@@ -580,6 +580,14 @@ class PlannerConfig:
     target left its way by 10°. Off: the pursuit and the inverse answers (runs stored before
     keep it off)."""
 
+    convoy_facing: bool = True
+    """With `convoy`: the robot's push in a convoy step is a pose, its place and a heading
+    along the push (either way along it), so the robot drives straight along the move it is
+    asked for. A chain of discs goes where its pusher drives; asked for a place alone, the
+    robot reached each push's end by an arc, ±12° about the way, one arc one way and the next
+    the other, and the target went up to 15° off (docs/algorithm.md). Off: the place alone
+    (runs stored before keep it off)."""
+
     def validate(self) -> None:
         for name in ("max_depth", "support_neighbours", "max_detours", "navigation_grid",
                      "route_depth", "route_beam"):
@@ -759,7 +767,8 @@ LEGACY_DEFAULTS: dict[str, dict[str, Any]] = {
                 "near_pursuit": False, "route_search": False, "spare_stagings": False,
                 "pusher_contacts": False, "skip_idle_repeats": False,
                 "drifting_places": False, "face_places": False,
-                "mirrored_relations": False, "convoy": False},
+                "mirrored_relations": False, "convoy": False,
+                "convoy_facing": False},
 }
 """Keys added after runs were first stored, with the value that reproduces what a run stored
 without them did (its defaults then): a stored run restores the learner it trained (the

@@ -298,9 +298,11 @@ class Planner:
         if progress <= 0.0:
             return -1
         x = here.x
-        if self._in_convoy(aff, b):
+        convoy = self._in_convoy(aff, b)
+        if convoy:
             x = self.straight_move(aff, delta, c, x)
-        return self.execute(aff.input, x, b, actuator, budget, depth, exclude=aff.id)
+        return self.execute(aff.input, x, b, actuator, budget, depth, exclude=aff.id,
+                            facing=convoy and self.pc.convoy_facing)
 
     def _from_needed(self, aff: Affordance, b: Binding, delta: np.ndarray, c: np.ndarray,
                      x: np.ndarray, progress: float, relations: np.ndarray,
@@ -843,8 +845,10 @@ class Planner:
         return gap
 
     def execute(self, space: RoleSpace, x: np.ndarray, b: Binding, actuator: Actuator,
-                budget: int, depth: int, exclude: int = -1) -> int:
-        """Produce the change `x` of the controllable `space`; returns actions used."""
+                budget: int, depth: int, exclude: int = -1, facing: bool = False) -> int:
+        """Produce the change `x` of the controllable `space`; returns actions used.
+        `facing`: the robot's position is changed facing along `x` (either way along it), a
+        pose the navigator reaches (`convoy_facing`)."""
         if space is ACTION:
             action = np.clip(x, -1.0, 1.0)
             if self.foresees_contact(b, action, actuator.obs) or self._idle_repeat(
@@ -858,7 +862,8 @@ class Planner:
             mover = self.navigator.movers()[0]
             step = self.step_size(mover) if mover is not None else float(np.linalg.norm(x))
             goal = self.value(space, actuator.obs, b) + x
-            place = Place(goal, None, max(self.pc.subgoal_tolerance * step, 0.005))
+            place = Place(goal, _unit_heading(x) if facing else None,
+                          max(self.pc.subgoal_tolerance * step, 0.005))
             done = self.navigate([place], b, actuator, min(budget, self.config.subgoal_budget))
             if done > 0:
                 return done

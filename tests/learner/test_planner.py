@@ -1353,3 +1353,39 @@ def test_the_robot_pushes_straight_in_a_convoy_and_by_the_inverse_answer_elsewhe
     np.testing.assert_allclose(pushed(1), [best, 0.0], atol=1e-12)
     np.testing.assert_allclose(pushed(-1), answer)
     np.testing.assert_allclose(pushed(3), answer)
+
+
+def test_the_robots_convoy_push_is_a_pose_facing_the_push_and_elsewhere_a_place():
+    """`convoy_facing`: the robot's straight push in a convoy step goes to the navigator as a
+    pose — its place and a heading along the push — so it drives straight along the move
+    instead of reaching the place by an arc; a push that is no convoy (staging), or with the
+    option off, asks for the place alone."""
+    from dataclasses import replace
+
+    planner, obs, _ = _avoid_scene()
+    answer = np.array([0.1, 0.1])
+    model = SimpleNamespace(n=100, context_dims=[2], predict=lambda x, c: 0.5 * x,
+                            infer=lambda delta, c=None: SimpleNamespace(
+                                x=answer.copy(), y_predicted=delta.copy()))
+    aff = SimpleNamespace(id=3, input=ROBOT_POSITION, output=TARGET_POSITION,
+                          contexts=(TARGET_ROBOT,), model=model)
+    b = Binding(target=2, avoid=1)  # the tool, pushed as a target; the target, to avoid
+    planner.context = lambda *args: np.zeros(2)
+    planner.reachable_relations = lambda a: np.array([True])
+    planner._from_needed = lambda *args: None  # at its place: it pushes from here
+
+    def place(convoy_output: int) -> Place:
+        planner._convoy_output = convoy_output
+        asked = []
+        planner.navigate = lambda places, *args, **kw: asked.extend(places) or 1
+        planner._one_step(aff, b, np.array([0.0, 0.03]), SimpleNamespace(obs=obs), 80, 1)
+        assert len(asked) == 1
+        return asked[0]
+
+    pose = place(1)
+    assert pose.heading is not None
+    np.testing.assert_allclose(pose.heading, [0.0, 1.0], atol=1e-12)
+    assert pose.position[0] == 0.0 and pose.position[1] > 0.0  # straight along +y
+    assert place(-1).heading is None  # staging: the inverse answer, a place alone
+    planner.pc = replace(planner.pc, convoy_facing=False)
+    assert place(1).heading is None
