@@ -588,6 +588,13 @@ class PlannerConfig:
     the other, and the target went up to 15° off (docs/algorithm.md). Off: the place alone
     (runs stored before keep it off)."""
 
+    short_subgoals: bool = True
+    """A sub-goal shorter than its affordance's typical step counts as reached within
+    `subgoal_tolerance` of its own length, not of a step: the convoy's last step asked the
+    tool for 3.7 cm, its pusher's sub-goal read as reached within 4.5 cm before any action,
+    and the point ended 3.7 cm from its goal with 75 of its 80 actions left. Off: the share
+    of a step whatever the sub-goal's length (runs stored before keep it off)."""
+
     def validate(self) -> None:
         for name in ("max_depth", "support_neighbours", "max_detours", "navigation_grid",
                      "route_depth", "route_beam"):
@@ -768,7 +775,7 @@ LEGACY_DEFAULTS: dict[str, dict[str, Any]] = {
                 "pusher_contacts": False, "skip_idle_repeats": False,
                 "drifting_places": False, "face_places": False,
                 "mirrored_relations": False, "convoy": False,
-                "convoy_facing": False},
+                "convoy_facing": False, "short_subgoals": False},
 }
 """Keys added after runs were first stored, with the value that reproduces what a run stored
 without them did (its defaults then): a stored run restores the learner it trained (the

@@ -15,7 +15,9 @@ from hadim_cli.errors import HadimError
 from hadim_cli.evaluation.metric import heading_error
 from hadim_cli.evaluation.tasks import load_task, load_task_file
 
-ITERATIONS = 300
+ITERATIONS = 400
+"""Long enough for seed 2 to have a push affordance (its first at 369 iterations with the
+default of 2026-11-28; at 126 before `short_subgoals`)."""
 
 
 def invoke(runner, *args: object):

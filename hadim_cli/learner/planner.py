@@ -236,8 +236,11 @@ class Planner:
             dist = float(np.linalg.norm(gap))
             step = self.step_size(aff)
             # A sub-goal (depth > 0) serves a parent that replans after it: chasing its last
-            # few millimetres would cost whole actions (a turn, a nudge) for nothing.
-            slack = self.pc.subgoal_tolerance * step if depth > 0 else 0.0
+            # few millimetres would cost whole actions (a turn, a nudge) for nothing. With
+            # `short_subgoals` the slack is a share of the sub-goal's own length when that is
+            # shorter than a step: else a short one reads as reached before its first action.
+            scale = min(step, start) if self.pc.short_subgoals else step
+            slack = self.pc.subgoal_tolerance * scale if depth > 0 else 0.0
             if dist <= max(self.config.reach_tolerance * start, self.config.zero_eps, slack):
                 break
             delta = gap if dist <= step else gap * (step / dist)

@@ -1389,3 +1389,30 @@ def test_the_robots_convoy_push_is_a_pose_facing_the_push_and_elsewhere_a_place(
     assert place(-1).heading is None  # staging: the inverse answer, a place alone
     planner.pc = replace(planner.pc, convoy_facing=False)
     assert place(1).heading is None
+
+
+def test_a_subgoal_shorter_than_a_step_is_held_to_a_share_of_its_own_length():
+    """`short_subgoals`: a sub-goal 3 cm away, for a robot whose typical step is ~0.2 m, is
+    reached (an action taken, the robot within a tenth of it) — not read as reached before
+    any action because it lies within 30 % of a step (the convoy's last 3.7 cm were asked of
+    the tool and never pushed). A goal of the top level (depth 0) is unchanged; off, the
+    sub-goal takes no action."""
+    from dataclasses import replace
+
+    planner, obs, layout = _avoid_scene()
+    planner.pc = replace(planner.pc, navigation=False)  # the motion model's inverse answer
+    mover = planner.h.controllers(ROBOT_POSITION)[0]
+    assert planner.step_size(mover) > 0.15
+    goal = np.array([0.03, 0.0])
+
+    def attempt(short: bool, depth: int = 1) -> tuple[int, float]:
+        planner.pc = replace(planner.pc, short_subgoals=short)
+        world = _World(obs, layout)
+        used = planner.reach(mover, Binding(), goal, world, 10, depth).actions
+        return used, float(np.linalg.norm(world.obs[world.position] - goal))
+
+    used, left = attempt(True)
+    assert used >= 1 and left <= 0.3 * 0.03
+    assert attempt(False) == (0, 0.03)
+    used, left = attempt(False, depth=0)
+    assert used >= 1 and left <= 0.3 * 0.03
