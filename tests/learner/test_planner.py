@@ -1319,6 +1319,23 @@ def test_a_convoy_moves_the_tool_along_the_targets_way_and_tells_its_pusher():
     assert np.degrees(np.arccos(move @ way / np.linalg.norm(move))) > 14.0
 
 
+def _robot_pushing_the_tool(planner: Planner, answer: np.ndarray
+                            ) -> tuple[SimpleNamespace, Binding]:
+    """The robot's push level (`robot.position → target.position | target-robot`) bound to
+    push the tool (entity 2) clear of the target (entity 1), standing at its place: its
+    inverse model answers `answer` for any outcome, its forward model predicts half the
+    robot's move. `planner` is stubbed to push from here."""
+    model = SimpleNamespace(n=100, context_dims=[2], predict=lambda x, c: 0.5 * x,
+                            infer=lambda delta, c=None: SimpleNamespace(
+                                x=answer.copy(), y_predicted=delta.copy()))
+    aff = SimpleNamespace(id=3, input=ROBOT_POSITION, output=TARGET_POSITION,
+                          contexts=(TARGET_ROBOT,), model=model)
+    planner.context = lambda *args: np.zeros(2)
+    planner.reachable_relations = lambda a: np.array([True])
+    planner._from_needed = lambda *args: None  # at its place: it pushes from here
+    return aff, Binding(target=2, avoid=1)
+
+
 def test_the_robot_pushes_straight_in_a_convoy_and_by_the_inverse_answer_elsewhere():
     """`convoy`: the robot at its place behind the tool, asked to move it 3 cm along +x for a
     convoy move of the tool into the target, pushes along +x at the length its forward model
@@ -1330,15 +1347,7 @@ def test_the_robot_pushes_straight_in_a_convoy_and_by_the_inverse_answer_elsewhe
 
     planner = _planner()
     answer = np.array([0.1, 0.1])
-    model = SimpleNamespace(n=100, context_dims=[2], predict=lambda x, c: 0.5 * x,
-                            infer=lambda delta, c=None: SimpleNamespace(
-                                x=answer.copy(), y_predicted=delta.copy()))
-    aff = SimpleNamespace(id=3, input=ROBOT_POSITION, output=TARGET_POSITION,
-                          contexts=(TARGET_ROBOT,), model=model)
-    b = Binding(target=2, avoid=1)  # the tool, pushed as a target; the target, to avoid
-    planner.context = lambda *args: np.zeros(2)
-    planner.reachable_relations = lambda a: np.array([True])
-    planner._from_needed = lambda *args: None  # at its place: it pushes from here
+    aff, b = _robot_pushing_the_tool(planner, answer)
 
     def pushed(convoy_output: int) -> np.ndarray:
         planner._convoy_output = convoy_output
@@ -1364,15 +1373,7 @@ def test_the_robots_convoy_push_is_a_pose_facing_the_push_and_elsewhere_a_place(
 
     planner, obs, _ = _avoid_scene()
     answer = np.array([0.1, 0.1])
-    model = SimpleNamespace(n=100, context_dims=[2], predict=lambda x, c: 0.5 * x,
-                            infer=lambda delta, c=None: SimpleNamespace(
-                                x=answer.copy(), y_predicted=delta.copy()))
-    aff = SimpleNamespace(id=3, input=ROBOT_POSITION, output=TARGET_POSITION,
-                          contexts=(TARGET_ROBOT,), model=model)
-    b = Binding(target=2, avoid=1)  # the tool, pushed as a target; the target, to avoid
-    planner.context = lambda *args: np.zeros(2)
-    planner.reachable_relations = lambda a: np.array([True])
-    planner._from_needed = lambda *args: None  # at its place: it pushes from here
+    aff, b = _robot_pushing_the_tool(planner, answer)
 
     def place(convoy_output: int) -> Place:
         planner._convoy_output = convoy_output
