@@ -592,8 +592,11 @@ class PlannerConfig:
     """A sub-goal shorter than its affordance's typical step counts as reached within
     `subgoal_tolerance` of its own length, not of a step: the convoy's last step asked the
     tool for 3.7 cm, its pusher's sub-goal read as reached within 4.5 cm before any action,
-    and the point ended 3.7 cm from its goal with 75 of its 80 actions left. Off: the share
-    of a step whatever the sub-goal's length (runs stored before keep it off)."""
+    and the point ended 3.7 cm from its goal with 75 of its 80 actions left. A goal reached
+    through an affordance's steps only: the navigator's place for one move of the robot keeps
+    the share of a step (made relative too, the robot-only share rose: docs/algorithm.md).
+    Off: the share of a step whatever the sub-goal's length (runs stored before keep it
+    off)."""
 
     def validate(self) -> None:
         for name in ("max_depth", "support_neighbours", "max_detours", "navigation_grid",
