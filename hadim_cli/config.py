@@ -239,6 +239,13 @@ class LearnerConfig:
     tool's controller accept, the (target, tool) whose chain is shortest: the robot's way to
     the tool plus the tool's way to the target (for one object, the paper's closest object).
     Off: the closest target, then the tool nearest it, however far the robot must go first."""
+    own_relations: bool = True
+    """A context about an entity the affordance neither acts with nor acts on (the robot's
+    relation to the target, or its heading, for a push through a tool) counts as one more
+    context: it must beat the others by `context_gain`. Such a relation predicts about as
+    well while the entity trails the affordance's input (the robot behind the tool), but the
+    planner cannot establish it through that input: held for a thousand iterations it left
+    the tool level placing the robot (docs/algorithm.md). Off: ranked by competence alone."""
     goal_budget: int = 40
     """Primitive actions one goal attempt may use."""
     subgoal_budget: int = 1
@@ -770,7 +777,8 @@ LEGACY_DEFAULTS: dict[str, dict[str, Any]] = {
     "learner": {"surface_relations": False, "relation_frames": False, "context_splits": 1,
                 "p_a_pooled": False, "free_motion": False, "body_frame": False,
                 "p_a_refusals": False, "open_contexts": False, "absorb_mismatch": True,
-                "k_choices": (), "chain_objects": False},
+                "k_choices": (), "chain_objects": False,
+                "own_relations": False},
     "planner": {"navigation": False, "steer": False, "hold_relation": False,
                 "pose_places": False, "pursue_line": False, "closer_places": False,
                 "contact_places": False, "precise_places": False,

@@ -100,12 +100,14 @@ def test_a_run_stored_before_the_papers_rules_were_the_default_keeps_its_own():
 def test_a_run_stored_before_tools_were_chosen_by_their_chain_keeps_its_objects():
     """`learner.chain_objects` (on since 2026-11-26): a stored config lacking it restores the
     ObjectSelection it trained with (the closest target, then the tool nearest it); one
-    holding it keeps it."""
-    values = Config().to_dict()
-    assert values["learner"]["chain_objects"] is True
-    assert stored_config(values).learner.chain_objects is True
-    del values["learner"]["chain_objects"]
-    assert stored_config(values).learner.chain_objects is False
+    holding it keeps it. `learner.own_relations` (on since 2026-11-28) likewise: contexts
+    ranked by competence alone."""
+    for key in ("chain_objects", "own_relations"):
+        values = Config().to_dict()
+        assert values["learner"][key] is True
+        assert getattr(stored_config(values).learner, key) is True
+        del values["learner"][key]
+        assert getattr(stored_config(values).learner, key) is False
 
 
 def test_a_run_stored_before_trips_were_searched_keeps_its_waypoints():

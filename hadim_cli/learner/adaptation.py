@@ -4,7 +4,9 @@ For each space whose outcome was non-null during the episode (in random order): 
 affordance predicting that space takes the episode's rows; if they lower its competence by more
 than `match_tolerance` (they do not *match*), context changes are tried — adding, replacing or
 removing one context space among every observed space of the bound entities — and the best is
-kept when its competence reaches τ_modification and improves by `context_gain`; rows that no
+kept when its competence reaches τ_modification and improves by `context_gain` (a context
+about an entity the affordance neither acts with nor on counts as one more context,
+`own_relations`); rows that no
 change makes fit are given back (the paper's rule; `absorb_mismatch` keeps them, as runs
 stored before 2026-11-25 did). Then new affordances are tried for the space with every
 candidate input (A ∪ Ω_controllable) not yet used for it, with no context or the best single
@@ -67,6 +69,24 @@ class CreationBackoff:
 OBJECT_POSITION = RoleSpace(Role.TARGET, Property.POSITION)
 ROBOT_POSITION = RoleSpace(Role.ROBOT, Property.POSITION)
 TARGET_ROBOT = RoleSpace(Role.TARGET, Property.POSITION, Role.ROBOT)
+
+
+def own_entities(inp: RoleSpace, out: RoleSpace) -> frozenset[Role]:
+    """The entities an affordance acts with and on: its input's and output's roles, and the
+    robot for primitive actions (the robot's own commands)."""
+    roles = inp.roles | out.roles
+    return roles | {Role.ROBOT} if inp is ACTION else roles
+
+
+def foreign_penalty(inp: RoleSpace, out: RoleSpace, contexts: tuple[RoleSpace, ...],
+                    config: LearnerConfig) -> float:
+    """With `own_relations`, `context_gain` when a context is about an entity the affordance
+    neither acts with nor acts on (the robot, for a push through a tool): bringing in another
+    entity counts as one more context."""
+    if not config.own_relations:
+        return 0.0
+    own = own_entities(inp, out)
+    return config.context_gain if any(c.roles - own for c in contexts) else 0.0
 
 
 def required_gain(n_before: int, n_after: int, context_gain: float) -> float:
@@ -328,16 +348,20 @@ class Adaptation:
         def score(contexts: tuple[RoleSpace, ...]) -> float:
             return f.trial(aff.input, aff.output, contexts, rows, np.random.default_rng(seed))
 
+        def penalty(contexts: tuple[RoleSpace, ...]) -> float:
+            return foreign_penalty(aff.input, aff.output, contexts, cfg)
+
         baseline = score(aff.contexts)
         scored = [(score(contexts), kind, contexts, detail)
                   for kind, contexts, detail in self._context_options(aff)]
         if not scored:
             return
         margin, value, kind, contexts, detail = max(
-            ((value - required_gain(len(aff.contexts), len(contexts), cfg.context_gain),
-              value, kind, contexts, detail) for value, kind, contexts, detail in scored),
+            ((value - required_gain(len(aff.contexts), len(contexts), cfg.context_gain)
+              - penalty(contexts), value, kind, contexts, detail)
+             for value, kind, contexts, detail in scored),
             key=lambda option: option[0])
-        if margin < baseline:
+        if margin < baseline - penalty(aff.contexts):
             found = self._replacement_beyond_noise(aff, rows, baseline, scored, rng)
             if found is None:
                 return
@@ -572,14 +596,15 @@ class Adaptation:
             return f.trial(inp, out, contexts, rows, np.random.default_rng(seed))
 
         bare = score(())
-        best = (bare, ())
+        best, ranked = (bare, ()), bare
         for c in context_candidates(inp.roles | out.roles,
                                     open_all=self.config.open_contexts):
             value = score((c,))
-            if value > best[0]:
-                best = (value, (c,))
+            rank = value - foreign_penalty(inp, out, (c,), self.config)
+            if rank > ranked:
+                best, ranked = (value, (c,)), rank
         # A context must earn its place as in a context change: by `context_gain` over none.
-        gain = best[0] - bare
+        gain = ranked - bare
         if best[1] and bare >= self.config.tau_creation and gain < self.config.context_gain:
             return bare, ()
         return best

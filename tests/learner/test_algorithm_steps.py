@@ -25,7 +25,7 @@ from hadim_cli.learner.adaptation import CreationBackoff
 from hadim_cli.learner.explorer import Fallback, Mode
 from hadim_cli.learner.hierarchy import EventKind
 from hadim_cli.learner.planner import Attempt
-from hadim_cli.learner.spaces import ACTION, Rows
+from hadim_cli.learner.spaces import ACTION, Role, RoleSpace, Rows
 from hadim_cli.world.layout import Property
 
 
@@ -130,6 +130,87 @@ def test_a_replacement_short_of_the_margin_is_made_when_it_holds_on_every_split(
     assert len(splits_seen) == splits
     if replaced:
         assert room.hierarchy.events[-1].kind == EventKind.CONTEXT_REPLACED
+
+
+TARGET_TOOL = RoleSpace(Role.TARGET, Property.POSITION, Role.TOOL)
+
+
+def _tool_scores(robot_lead: float):
+    """Held-out scores of a tool affordance's contexts: the tool's relation to the target
+    0.66, the robot's `robot_lead` above it, none 0.4, anything else 0.3."""
+    def trial(inp, out, contexts, rows, rng):
+        if contexts == (TARGET_TOOL,):
+            return 0.66
+        if contexts == (TARGET_ROBOT,):
+            return 0.66 + robot_lead
+        return 0.4 if contexts == () else 0.3
+    return trial
+
+
+@pytest.mark.parametrize(("own", "robot_lead", "chosen"), [
+    (True, 0.07, TARGET_TOOL),    # the robot's relation leads by less than the gain
+    (True, 0.12, TARGET_ROBOT),   # … by more: it has earned its place
+    (False, 0.03, TARGET_ROBOT),  # runs stored before: the best score alone
+])
+def test_a_tool_affordance_is_created_with_the_tools_relation_unless_the_robots_earns_it(
+        own, robot_lead, chosen, monkeypatch):
+    """`own_relations`: a context about an entity a push through a tool neither acts with nor
+    on (the robot, trailing the tool) counts as one more context, so must beat the others by
+    `context_gain` when the affordance is created: seed 17 created its tool affordance with
+    the robot's relation to the target (still 0.02 ahead of the tool's on its 133 rows at
+    2000), and its tool level placed the robot for 1200 iterations (push-with-tool 0.00 at
+    2000)."""
+    room = Room(own_relations=own, context_gain=0.1)
+    monkeypatch.setattr(room.fitter, "trial", _tool_scores(robot_lead))
+    rows = room.rows(np.zeros(0, dtype=np.int64))
+    value, contexts = room.adaptation._best_candidate(TOOL_POSITION, TARGET_POSITION, rows,
+                                                      np.random.default_rng(0))
+    assert contexts == (chosen,)
+    assert value == _tool_scores(robot_lead)(None, None, contexts, None, None)
+
+
+@pytest.mark.parametrize(("own", "start", "robot_lead", "end"), [
+    (True, TARGET_ROBOT, 0.02, TARGET_TOOL),    # 0.02 < 0.1 (robot) − 0.05 (replacement)
+    (True, TARGET_ROBOT, 0.08, TARGET_ROBOT),   # 0.08 > 0.05: the robot's earns its place
+    (False, TARGET_ROBOT, 0.02, TARGET_ROBOT),  # the robot's kept: the other is no better
+    (True, TARGET_TOOL, 0.12, TARGET_TOOL),     # 0.12 < 0.05 (replacement) + 0.1 (robot)
+    (False, TARGET_TOOL, 0.08, TARGET_ROBOT),   # 0.08 > 0.05
+])
+def test_a_tool_affordance_holds_the_robots_relation_only_while_it_earns_it(
+        own, start, robot_lead, end, monkeypatch):
+    """A context review of a tool affordance: the robot's relation to the target is given up
+    for the tool's when it leads by less than `context_gain` less a replacement's margin
+    (half of it), and taken over the tool's only when it leads by both."""
+    room = Room(own_relations=own, context_gain=0.1)
+    t = room.moves(np.random.default_rng(0), 50)
+    aff = room.affordance(t, (start,), inp=TOOL_POSITION, out=TARGET_POSITION)
+    monkeypatch.setattr(room.fitter, "trial", _tool_scores(robot_lead))
+    monkeypatch.setattr(room.fitter, "fit", lambda *a, **k: aff.model)
+    monkeypatch.setattr(room.fitter, "competence", lambda *a, **k: 0.6)
+    n_events = len(room.hierarchy.events)
+    room.adaptation._adapt_context(aff, 500, np.random.default_rng(2))
+    assert aff.contexts == (end,)
+    assert len(room.hierarchy.events) == n_events + (end != start)
+
+
+def test_only_a_relation_to_an_entity_outside_the_affordance_is_held_back():
+    """The robot's relation to the target is the push's own, from the robot's position or
+    from its wheel commands; through a tool it is another entity's, as the robot's heading
+    is. The tool's relation and the objects' own properties are the tool affordance's."""
+    from hadim_cli.learner.adaptation import foreign_penalty
+
+    cfg = Room(context_gain=0.1).config
+    for inp, out, contexts, penalty in [
+            (ACTION, TARGET_POSITION, (TARGET_ROBOT,), 0.0),
+            (ROBOT_POSITION, TARGET_POSITION, (TARGET_ROBOT,), 0.0),
+            (ACTION, ROBOT_POSITION, (ROBOT_HEADING,), 0.0),
+            (TOOL_POSITION, TARGET_POSITION, (TARGET_TOOL,), 0.0),
+            (TOOL_POSITION, TARGET_POSITION, (RoleSpace(Role.TOOL, Property.RADIUS),), 0.0),
+            (TOOL_POSITION, TARGET_POSITION, (TARGET_ROBOT,), 0.1),
+            (TOOL_POSITION, TARGET_POSITION, (TARGET_TOOL, ROBOT_HEADING), 0.1)]:
+        assert foreign_penalty(inp, out, contexts, cfg) == pytest.approx(penalty)
+    assert foreign_penalty(TOOL_POSITION, TARGET_POSITION, (TARGET_ROBOT,),
+                           Room(own_relations=False).config) == 0.0
 
 
 # ---------------------------------------------------------------------- match
