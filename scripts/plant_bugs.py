@@ -251,9 +251,7 @@ BUGS = (
         "            if value < self.config.tau_creation:\n", "            if False:\n",
         f"{STEPS}::test_nothing_is_created_from_noise_and_the_trial_backs_off"),
     Bug("creation-context-never", "hadim_cli/learner/adaptation.py",
-        "        for c in context_candidates(inp.roles | out.roles,\n"
-        "                                    open_all=self.config.open_contexts):\n",
-        "        for c in ():\n",
+        "options = [(bare, ())] + [", "options = [(bare, ())] or [",
         f"{STEPS}::test_creation_finds_the_drive_and_its_context"),
     Bug("backoff-ignored", "hadim_cli/learner/adaptation.py",
         "            if not self.backoff.ready(inp, out, episode):\n                continue\n",
@@ -555,7 +553,7 @@ BUGS = (
         "return roles | {Role.ROBOT} if inp is ACTION else roles", "return roles",
         f"{STEPS}::test_only_a_relation_to_an_entity_outside_the_affordance_is_held_back"),
     Bug("own-relations-creation-unranked", "hadim_cli/learner/adaptation.py",
-        "            if rank > ranked:", "            if value > best[0]:",
+        "best = max(options, key=rank)", "best = max(options, key=lambda o: o[0])",
         f"{STEPS}::test_a_tool_affordance_is_created_with_the_tools_relation_unless_the_robots"
         "_earns_it"),
     Bug("own-relations-review-baseline-unpenalised", "hadim_cli/learner/adaptation.py",

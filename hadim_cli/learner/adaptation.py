@@ -6,11 +6,11 @@ than `match_tolerance` (they do not *match*), context changes are tried — addi
 removing one context space among every observed space of the bound entities — and the best is
 kept when its competence reaches τ_modification and improves by `context_gain` (a context
 about an entity the affordance neither acts with nor on counts as one more context,
-`own_relations`); rows that no
-change makes fit are given back (the paper's rule; `absorb_mismatch` keeps them, as runs
-stored before 2026-11-25 did). Then new affordances are tried for the space with every
-candidate input (A ∪ Ω_controllable) not yet used for it, with no context or the best single
-context (kept only if it gains `context_gain` over none); the best reaching τ_creation joins H.
+`own_relations`); rows that no change makes fit are given back (the paper's rule;
+`absorb_mismatch` keeps them, as runs stored before 2026-11-25 did). Then new affordances are
+tried for the space with every candidate input (A ∪ Ω_controllable) not yet used for it, with
+no context or the best single context (kept only if it gains `context_gain` over none); the
+best reaching τ_creation joins H.
 p_A of the object-moving affordances is taught, pooled, the objects that moved (positives) and
 the robot and the objects that refused it (negatives, `_refused`); with `p_a_refusals` off,
 the objects an affordance was applied to in vain (`_applied_in_vain`).
@@ -595,17 +595,16 @@ class Adaptation:
         def score(contexts: tuple[RoleSpace, ...]) -> float:
             return f.trial(inp, out, contexts, rows, np.random.default_rng(seed))
 
+        def rank(option: tuple[float, tuple[RoleSpace, ...]]) -> float:
+            return option[0] - foreign_penalty(inp, out, option[1], self.config)
+
         bare = score(())
-        best, ranked = (bare, ()), bare
-        for c in context_candidates(inp.roles | out.roles,
-                                    open_all=self.config.open_contexts):
-            value = score((c,))
-            rank = value - foreign_penalty(inp, out, (c,), self.config)
-            if rank > ranked:
-                best, ranked = (value, (c,)), rank
+        options = [(bare, ())] + [(score((c,)), (c,)) for c in context_candidates(
+            inp.roles | out.roles, open_all=self.config.open_contexts)]
+        best = max(options, key=rank)  # the first of equals: no context before any
         # A context must earn its place as in a context change: by `context_gain` over none.
-        gain = ranked - bare
-        if best[1] and bare >= self.config.tau_creation and gain < self.config.context_gain:
+        if best[1] and bare >= self.config.tau_creation \
+                and rank(best) - bare < self.config.context_gain:
             return bare, ()
         return best
 
