@@ -195,10 +195,14 @@ def render_eval(console: Console, result: TaskResult, iteration: int) -> None:
     actions = sum(p.actions for p in counted)
     caption = None
     if counted and actions:
+        robot_only = sum(p.robot_only for p in counted)
         caption = (f"{sum(p.trips for p in counted) / len(counted):.1f} trips per point; "
-                   f"{100 * sum(p.robot_only for p in counted) / actions:.0f} % of the "
+                   f"{100 * robot_only / actions:.0f} % of the "
                    f"{actions} actions moved no object")
         pushed = [p for p in points if p.first_push is not None]  # push tasks' moved objects
+        if pushed and robot_only:
+            after = sum(p.robot_only_after for p in counted)
+            caption += f" ({100 * after / robot_only:.0f} % of those after the object first moved)"
         moves = sum(p.driven_moves for p in pushed)
         if moves:
             path = sum(p.driven_path for p in pushed)

@@ -205,6 +205,36 @@ def test_an_action_counts_as_robot_only_unless_it_moves_an_object():
     assert (actuator.used, actuator.robot_only) == (6, 3)
 
 
+def test_robot_only_actions_after_the_pushed_object_first_moved_are_counted_apart():
+    """`robot_only_after`: of the actions that moved no object, those after the push task's
+    object first moved (corrections once it is on its way); turns before its first push
+    are not among them, and a robot task counts none."""
+    from hadim_cli.config import WorldConfig
+    from hadim_cli.evaluation.runner import EvalActuator
+    from hadim_cli.world.scene import ObjectSpec, Scene
+    from hadim_cli.world.world import World
+
+    cfg = WorldConfig()
+    green = (0.2, 0.8, 0.2)
+    far = [ObjectSpec(-1.5 + 0.4 * i, 1.6, 0.1, 0.2, (0.8, 0.2, 0.2), False)
+           for i in range(cfg.n_green + cfg.n_red - 1)]
+    scene = Scene((ObjectSpec(0.27, 0.0, 0.1, 0.2, green, True), *far))
+    for pushed, after in ((True, 2), (False, 0)):
+        world = World(cfg)
+        obs = world.reset(scene=scene)
+        actuator = EvalActuator(world, obs, 20, None)
+        if pushed:
+            actuator.watch_push(1, -1, np.array([1.0, 0.0]))
+        actuator.act(np.array([-1.0, 1.0]))   # a turn on the spot, before any push
+        actuator.act(np.array([1.0, -1.0]))   # back
+        for _ in range(3):                    # into obj1, which moves
+            actuator.act(np.array([1.0, 1.0]))
+        actuator.act(np.array([-1.0, 1.0]))   # turns after it moved
+        actuator.act(np.array([1.0, -1.0]))
+        assert actuator.robot_only == 4
+        assert actuator.robot_only_after == after
+
+
 def test_a_push_length_is_the_driven_object_s_travel_per_action_that_moved_it():
     """`driven_moves` / `driven_path`: the actions that moved the followed object and how far
     it went over them. A turn on the spot and a backing off move it not; each push does, and

@@ -77,6 +77,10 @@ class PointResult:
     """How far (m) the driven entity moved, summed over those actions: per action that moved
     it, the length of a push. With the same trips, longer pushes leave a larger share of the
     actions moving no object (`robot_only`)."""
+    robot_only_after: int = 0
+    """Of `robot_only`, the actions after the driven object (a push task's) first moved: the
+    corrections once it is on its way, against getting behind it (or staging a tool) before
+    its first push."""
 
 
 @dataclass(frozen=True)
@@ -142,6 +146,7 @@ class EvalActuator:
         self.deviation = 0.0
         self._objects = world.layout.object_columns(Property.POSITION)
         self.robot_only = 0
+        self.robot_only_after = 0
         self.driven_moves = 0
         self.driven_path = 0.0
         self._pushed: tuple[int, int, np.ndarray] | None = None
@@ -175,8 +180,10 @@ class EvalActuator:
         if self._pushed is not None and self.first_push is None:
             self.first_push = first_push(self.world.layout, last, self._obs, *self._pushed)
         self.used += 1
-        self.robot_only += bool(np.all(np.linalg.norm(self._obs[self._objects] - objects, axis=1)
-                                       < MOVED))
+        still = bool(np.all(np.linalg.norm(self._obs[self._objects] - objects, axis=1) < MOVED))
+        self.robot_only += still
+        # A push task's object has moved once its first push is measured (`watch_push`).
+        self.robot_only_after += still and self.first_push is not None
         self.path += float(np.linalg.norm(np.asarray(self.world.robot_pose()[:2]) - before))
         if self.line is not None:
             where, a, b = self.line
@@ -312,7 +319,8 @@ def evaluate(learner: Learner, world_config: WorldConfig, task: Task,
                                    actuator.robot_only, shares, actuator.first_push,
                                    dict(sorted(actuator.pursuits.items(),
                                                key=lambda kv: (-kv[1], kv[0]))),
-                                   actuator.driven_moves, actuator.driven_path))
+                                   actuator.driven_moves, actuator.driven_path,
+                                   actuator.robot_only_after))
         if record:
             recordings.append(Recording(task.name, tuple(map(float, point)),
                                         np.stack(actuator.observations), tuple(actuator.steps),
