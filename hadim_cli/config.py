@@ -595,6 +595,24 @@ class PlannerConfig:
     the other, and the target went up to 15° off (docs/algorithm.md). Off: the place alone
     (runs stored before keep it off)."""
 
+    convoy_plan: bool = False
+    """With `convoy`: each action of a convoy (the robot behind the object, within `realign`
+    of its place, the object within `realign` of its own) is chosen through the chain's
+    forward models — the robot's motion, its push of the object, the object's push of the
+    output — by the output's predicted distance to its goal and the two relations' predicted
+    drift (`Planner._convoy_plan`). The convoy pushed straight drifts 6-10° a push, the target
+    going along the tool-target line of centres, until a correction of about 18 robot-only
+    actions (docs/notes.md, twenty-third session). Off: the straight convoy step."""
+
+    convoy_turn: float = 8.0
+    """With `convoy_plan`: the largest predicted turn (degrees) of the robot's commands it
+    considers: the push's model reads the robot's net move, which an arc and a straight push
+    share, and errs 0.6 cm (median) under 5°, 1.6-1.9 cm at 5-30°."""
+
+    convoy_drift_cost: float = 3.0
+    """With `convoy_plan`: the cost, in steps of the output's way, of a relation predicted to
+    drift to `realign` (where a correction of two trips would follow)."""
+
     short_subgoals: bool = True
     """A sub-goal shorter than its affordance's typical step counts as reached within
     `subgoal_tolerance` of its own length, not of a step: the convoy's last step asked the
@@ -618,9 +636,12 @@ class PlannerConfig:
                      "small_correction", "subgoal_tolerance", "heading_tolerance"):
             value = getattr(self, name)
             _check(value > 0, f"planner.{name}", "must be > 0", value)
-        for name in ("approach_margin", "avoid_margin", "approach_distance"):
+        for name in ("approach_margin", "avoid_margin", "approach_distance",
+                     "convoy_drift_cost"):
             value = getattr(self, name)
             _check(value >= 0, f"planner.{name}", "must be >= 0", value)
+        _check(0.0 <= self.convoy_turn <= 180.0, "planner.convoy_turn", "must be in [0, 180]",
+               self.convoy_turn)
 
 
 @dataclass(frozen=True)

@@ -56,6 +56,8 @@ def test_file_then_overrides(tmp_path):
         ("world.object_radius_max=0.01", "world.object_radius_max"),
         ("world.random_heading=1", "must be true or false"),
         ("world.lidar_range=nan", "must be finite"),
+        ("planner.convoy_turn=200", "'planner.convoy_turn' = 200.0 is impossible"),
+        ("planner.convoy_drift_cost=-1", "'planner.convoy_drift_cost' = -1.0 is impossible"),
         ("world", "section.key=value"),
     ],
 )

@@ -52,6 +52,13 @@ IDLE_CHANGE = 1e-4
 STRAIGHT_LENGTHS = np.array([0.25, 0.375, 0.5, 0.625, 0.75, 0.875, 1.0, 1.25, 1.5, 2.0])
 """`convoy`'s lengths of a straight move, in units of the larger of the inverse model's
 answer and the outcome wanted (`Planner.straight_move`)."""
+DRIFT_POWER = 4
+"""`convoy_plan`'s cost of a relation's predicted drift, `convoy_drift_cost` × (gap /
+`realign`)^4: next to nothing while the relation is well within `realign`, the full cost as
+it reaches it."""
+MIN_PROGRESS = 0.2
+"""`convoy_plan` takes only commands predicted to bring the target this share of a step
+nearer its goal."""
 
 
 class Actuator(Protocol):
@@ -327,7 +334,12 @@ class Planner:
         needed = self.needed_context(aff, delta, c, relations | self._poses(aff))
         near = self._as_near(aff, c, needed, relations)
         off = self._gap(aff, spreads, c, near, relations)
-        if self.pc.convoy and self._held_relation(aff, b, delta, off, goal) is not None:
+        held = self._held_relation(aff, b, delta, off, goal) if self.pc.convoy else None
+        if held is not None:
+            if self.pc.convoy_plan and goal is not None:
+                done = self._convoy_plan(aff, b, delta, c, near, held, actuator, goal)
+                if done is not None:
+                    return done
             return self._convoy_step(aff, b, self.straight_move(aff, delta, c, x), actuator,
                                      budget, depth)
         way = self._way_to_final_place(aff, b, delta, near if self.pc.near_pursuit
@@ -386,6 +398,101 @@ class Planner:
             return self.execute(aff.input, move, b, actuator, budget, depth, exclude=aff.id)
         finally:
             self._convoy_output = outer
+
+    def _convoy_plan(self, aff: Affordance, b: Binding, delta: np.ndarray, c: np.ndarray,
+                     near: np.ndarray, held: tuple[int, slice], actuator: Actuator,
+                     goal: np.ndarray) -> int | None:
+        """`convoy_plan`: the convoy's next primitive action, chosen through the chain's
+        forward models — for each of the navigator's wheel commands, the robot's move (its
+        motion model), the object's (`aff`'s input, the tool: the robot's push of it, from
+        their relation) and the output's (`aff`, from the object's relation to it) — by the
+        output's predicted distance to `goal` in steps plus, for each of the two relations,
+        `convoy_drift_cost` × (its predicted gap to the one needed along the output's new
+        way / `realign`)^`DRIFT_POWER`. Only commands whose predicted turn is at most
+        `convoy_turn` (the push's model, from the robot's net move, cannot tell an arc from a
+        straight push: 0.6 cm off at the median under 5°, 1.6-1.9 cm at 5-30°), that the
+        robot's keep-outs allow and that bring the output `MIN_PROGRESS` of a step nearer.
+        With the robot out of contact behind the object, the command that drives it there
+        facing the way. Returns 1 (an action taken), None when it does not apply: no pusher
+        acting from the robot's position, the robot not behind the object or its relation
+        past `realign`, no command (the convoy step then)."""
+        obs = actuator.obs
+        sub_b = Binding(target=b.tool, avoid=b.target)
+        pushers = [a for a in self.h.controllers(aff.input)
+                   if a.id != aff.id and a.input == ROBOT_POSITION and a.model.n >= 2]
+        if not pushers or not self._navigating():
+            return None
+        push = pushers[0]
+        relation = next(((i, sl) for i, sl in _slices(push)
+                         if push.contexts[i].role is push.output.role
+                         and push.contexts[i].relative_to is Role.ROBOT), None)
+        if relation is None:
+            return None
+        robot = self.reader.entity_position(obs, 0)
+        mover = self._entity(aff.input, b)
+        pushed = self.reader.entity_position(obs, mover)
+        output = self.reader.entity_position(obs, self._entity(aff.output, b))
+        u = delta / max(float(np.linalg.norm(delta)), 1e-12)
+        if float((pushed - robot) @ u) <= 0.0:
+            return None
+        i3, sl3 = relation
+        c3 = self.context(push, obs, sub_b)
+        n3 = self.needed_context(push, self.step_size(push) * u, c3,
+                                 self.reachable_relations(push) | self._poses(push))
+        spreads3 = self._spreads(push)
+        if (np.linalg.norm(c3[sl3] - np.linalg.norm(n3[sl3]) * u) / spreads3[i3]
+                > self.pc.realign):
+            return None
+        keep = self._keepouts(sub_b, obs)
+        contact = self.reader.entity_radius(obs, 0) + self.reader.entity_radius(obs, mover)
+        if np.linalg.norm(pushed - robot) > contact + CONTACT_MARGIN:
+            command = self.navigator.choose(obs, Place(pushed - contact * u, u, CONTACT_MARGIN),
+                                            keep, sub_b.target, sub_b.tool)
+        else:
+            command = self._chain_command(aff, push, sub_b, c, c3, near, n3, held,
+                                          (i3, sl3), output, goal, keep, obs)
+        if command is None:
+            return None
+        self.stack.append(Pursuit("convoy through the chain", goal, b))
+        try:
+            self._act(actuator, command)
+        finally:
+            self.stack.pop()
+        return 1
+
+    def _chain_command(self, aff: Affordance, push: Affordance, sub_b: Binding,
+                       c: np.ndarray, c3: np.ndarray, near: np.ndarray, n3: np.ndarray,
+                       held: tuple[int, slice], relation: tuple[int, slice],
+                       output: np.ndarray, goal: np.ndarray, keep: list[Keepout],
+                       obs: np.ndarray) -> np.ndarray | None:
+        """`_convoy_plan`'s command with the robot against the object (None: none fits)."""
+        pred = self.navigator.predict(obs, sub_b.target, sub_b.tool)
+        if pred is None:
+            return None
+        robot = self.reader.entity_position(obs, 0)
+        shift = pred.end - robot
+        n = shift.shape[0]
+        moved = push.model.predict(shift, np.repeat(c3[None], n, 0))
+        out = aff.model.predict(moved, np.repeat(c[None], n, 0))
+        after = output + out
+        rem = np.linalg.norm(goal - after, axis=1)
+        way = (goal - after) / np.maximum(rem, 1e-12)[:, None]
+        (i6, sl6), (i3, sl3) = held, relation
+        gap6 = np.linalg.norm(c[sl6] + out - moved - np.linalg.norm(near[sl6]) * way,
+                              axis=1) / self._spreads(aff)[i6]
+        gap3 = np.linalg.norm(c3[sl3] + moved - shift - np.linalg.norm(n3[sl3]) * way,
+                              axis=1) / self._spreads(push)[i3]
+        step = self.step_size(aff)
+        cost = rem / step + self.pc.convoy_drift_cost * (
+            (gap6 / self.pc.realign) ** DRIFT_POWER + (gap3 / self.pc.realign) ** DRIFT_POWER)
+        heading = self.value(ROBOT_HEADING, obs, sub_b)
+        turn = np.arccos(np.clip(pred.heading @ heading, -1.0, 1.0))
+        ok = (self.navigator.allowed(obs, pred, keep)
+              & (rem < np.linalg.norm(goal - output) - MIN_PROGRESS * step)
+              & (turn <= np.deg2rad(self.pc.convoy_turn)))
+        if not ok.any():
+            return None
+        return pred.commands[int(np.argmin(np.where(ok, cost, np.inf)))].copy()
 
     def _in_convoy(self, aff: Affordance, b: Binding) -> bool:
         """Whether `aff` is the robot pushing an object for a `convoy` move of it: the entity

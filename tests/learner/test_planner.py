@@ -1417,3 +1417,108 @@ def test_a_subgoal_shorter_than_a_step_is_held_to_a_share_of_its_own_length():
     assert attempt(False) == (0, 0.03)
     used, left = attempt(False, depth=0)
     assert used >= 1 and left <= 0.3 * 0.03
+
+
+def _chain(planner: Planner, commands: np.ndarray, shifts: np.ndarray, turns_deg: np.ndarray,
+           relation_deg: float):
+    """`_chain_command`'s world on hand-made models whose answer is known: the robot (heading
+    +x) moves by `shifts` for `commands` (its heading turned by `turns_deg`), the tool it pushes
+    moves with it, and the target moves along the tool–target line of centres — `relation_deg`
+    off its way (+x, to the goal 1 m ahead) — by the tool's move projected on that line (a disc
+    pushes a disc along their centres). Relations 0.3 long, their spread 0.3, a step 0.1."""
+    from hadim_cli.learner.navigation import Prediction
+
+    n = np.array([np.cos(np.radians(relation_deg)), np.sin(np.radians(relation_deg))])
+    c6, c3 = 0.3 * n, np.array([0.3, 0.0])  # target–tool, tool–robot
+    turns = np.radians(turns_deg)
+    pred = Prediction(commands, 0.5 * shifts, shifts, np.stack([np.cos(turns), np.sin(turns)], 1),
+                      0.15, 1.0)
+    planner.navigator = SimpleNamespace(predict=lambda *args: pred,
+                                        allowed=lambda *args: np.ones(len(commands), bool))
+    planner._spreads = lambda a: [0.3]
+    planner.step_size = lambda a: 0.1
+    planner.value = lambda space, obs, b: np.array([1.0, 0.0])
+    planner.reader = SimpleNamespace(entity_position=lambda obs, e: np.zeros(2))
+    aff = SimpleNamespace(model=SimpleNamespace(
+        predict=lambda moved, c: (moved @ n)[:, None] * n[None]))
+    push = SimpleNamespace(model=SimpleNamespace(predict=lambda shift, c: shift.copy()))
+    goal, near = np.array([1.0, 0.0]), np.array([0.3, 0.0])
+
+    def command() -> np.ndarray | None:
+        return planner._chain_command(aff, push, Binding(target=2, avoid=1), c6, c3, near,
+                                      near.copy(), (0, slice(0, 2)), (0, slice(0, 2)),
+                                      np.zeros(2), goal, [], None)
+    return command
+
+
+def test_a_convoy_planned_through_the_chain_pushes_on_the_side_that_lines_the_tool_up():
+    """`convoy_plan`: the tool–target line 20° off the target's way. A push 10° off the way
+    moves the target furthest (0.0985 m along the line of centres) but slides the tool further
+    round it (the line 23° off after it); a push 40° off moves it 0.094 m and turns the line
+    back to 14°. With the drift costed the second is taken; without, the first. A command
+    that would go further still but turns the robot 20° is never taken (`convoy_turn`): the
+    push's model cannot tell its arc from a straight push."""
+    from dataclasses import replace
+
+    planner = _planner()
+    planner.pc = replace(planner.pc, convoy_plan=True)
+    angles = np.radians([-10.0, -40.0, -10.0])
+    shifts = np.array([0.1, 0.1, 0.2])[:, None] * np.stack([np.cos(angles), np.sin(angles)], 1)
+    commands = np.array([[1.0, 0.9], [1.0, 0.8], [1.0, 0.2]])
+    command = _chain(planner, commands, shifts, np.array([0.0, 0.0, 20.0]), -20.0)
+    np.testing.assert_array_equal(command(), commands[1])
+    planner.pc = replace(planner.pc, convoy_drift_cost=0.0)
+    np.testing.assert_array_equal(command(), commands[0])
+    planner.pc = replace(planner.pc, convoy_turn=30.0)
+    np.testing.assert_array_equal(command(), commands[2])
+    planner.pc = replace(planner.pc, convoy_turn=8.0, convoy_drift_cost=3.0)
+    shifts[:2] *= -1  # backing away: no command it may take brings the target nearer
+    assert command() is None
+
+
+def test_a_convoy_planned_through_the_chain_first_closes_on_the_object_behind_it():
+    """`convoy_plan`: the robot 5 cm short of the tool behind it (more than `CONTACT_MARGIN`)
+    drives to the contact place behind the tool facing the target's way (the navigator's
+    choice, one action, under the pursuit "convoy through the chain"); a robot in front of the
+    tool, or one whose relation to it is past `realign`, leaves the step to the straight
+    convoy (None)."""
+    from dataclasses import replace
+
+    planner, obs, layout = _avoid_scene()  # target obj1 at (0.6, 0), radius 0.12
+    planner.pc = replace(planner.pc, convoy_plan=True)
+    obs[layout.space("obj2", Property.POSITION).slice] = [0.3, 0.0]  # tool, radius 0.1
+    obs[layout.space("robot", Property.POSITION).slice] = [0.0, 0.0]  # 5 cm short of it
+    tool_aff = _tool_level(np.array([0.08, 0.0]), lambda x, c: x)
+    push = SimpleNamespace(id=3, input=ROBOT_POSITION, output=TARGET_POSITION,
+                           contexts=(TARGET_ROBOT,), model=SimpleNamespace(
+                               n=100, context_dims=[2], predict=lambda x, c: x))
+    planner.h = SimpleNamespace(controllers=lambda space: [push])
+    planner.context = lambda aff, o, b: np.array([0.3, 0.0])
+    planner.needed_context = lambda *args: np.array([0.3, 0.0])
+    planner.reachable_relations = lambda a: np.array([True])
+    planner._spreads = lambda a: [0.3]
+    planner.step_size = lambda a: 0.1
+    places, labels, acted = [], [], []
+    planner.navigator.choose = lambda o, place, keep, *args: places.append(place) or np.array(
+        [1.0, 1.0])
+    planner._act = lambda actuator, command: (labels.append([p.label for p in planner.stack]),
+                                              acted.append(command))
+    b = Binding(target=1, tool=2)
+    actuator = SimpleNamespace(obs=obs)
+
+    def plan() -> int | None:
+        return planner._convoy_plan(tool_aff, b, np.array([0.05, 0.0]), np.zeros(2),
+                                    np.array([0.3, 0.0]), (0, slice(0, 2)), actuator,
+                                    np.array([1.2, 0.0]))
+
+    assert plan() == 1
+    np.testing.assert_allclose(places[0].position, [0.05, 0.0], atol=1e-12)
+    np.testing.assert_allclose(places[0].heading, [1.0, 0.0])
+    assert labels == [["convoy through the chain"]] and len(acted) == 1
+    assert planner.stack == []
+    obs[layout.space("robot", Property.POSITION).slice] = [0.45, -0.3]  # ahead of the tool
+    assert plan() is None
+    obs[layout.space("robot", Property.POSITION).slice] = [0.0, 0.0]
+    planner.context = lambda aff, o, b: np.array([0.0, 0.3])  # round its side: past realign
+    assert plan() is None
+    assert len(acted) == 1
