@@ -411,9 +411,13 @@ class Planner:
         way / `realign`)^`DRIFT_POWER`. Only commands whose predicted turn is at most
         `convoy_turn` (the push's model, from the robot's net move, cannot tell an arc from a
         straight push: 0.6 cm off at the median under 5°, 1.6-1.9 cm at 5-30°), that the
-        robot's keep-outs allow and that bring the output `MIN_PROGRESS` of a step nearer.
-        With the robot out of contact behind the object, the command that drives it there
-        facing the way. Returns 1 (an action taken), None when it does not apply: no pusher
+        robot's keep-outs allow, that drive the robot into the object and bring the output
+        `MIN_PROGRESS` of a step nearer (a turn on the spot pushes nothing, though the push's
+        model, asked about a null move against the object, can predict a push), never the
+        last command again from the observation it left unchanged
+        (`_idle_repeat`: traced, a robot blocked against the tool repeated one push 58
+        times). With the robot out of contact behind the object, the command that drives it
+        there facing the way. Returns 1 (an action taken), None when it does not apply: no pusher
         acting from the robot's position, the robot not behind the object or its relation
         past `realign`, no command (the convoy step then)."""
         obs = actuator.obs
@@ -451,7 +455,7 @@ class Planner:
         else:
             command = self._chain_command(aff, push, sub_b, c, c3, near, n3, held,
                                           (i3, sl3), output, goal, keep, obs)
-        if command is None:
+        if command is None or self._idle_repeat(command, obs):
             return None
         self.stack.append(Pursuit("convoy through the chain", goal, b))
         try:
@@ -487,9 +491,13 @@ class Planner:
             (gap6 / self.pc.realign) ** DRIFT_POWER + (gap3 / self.pc.realign) ** DRIFT_POWER)
         heading = self.value(ROBOT_HEADING, obs, sub_b)
         turn = np.arccos(np.clip(pred.heading @ heading, -1.0, 1.0))
+        toward = self.reader.entity_position(obs, sub_b.target) - robot
+        toward /= max(float(np.linalg.norm(toward)), 1e-12)
         ok = (self.navigator.allowed(obs, pred, keep)
               & (rem < np.linalg.norm(goal - output) - MIN_PROGRESS * step)
-              & (turn <= np.deg2rad(self.pc.convoy_turn)))
+              & (shift @ toward >= MIN_PROGRESS * step)
+              & (turn <= np.deg2rad(self.pc.convoy_turn))
+              & ~np.array([self._idle_repeat(command, obs) for command in pred.commands]))
         if not ok.any():
             return None
         return pred.commands[int(np.argmin(np.where(ok, cost, np.inf)))].copy()

@@ -1438,7 +1438,8 @@ def _chain(planner: Planner, commands: np.ndarray, shifts: np.ndarray, turns_deg
     planner._spreads = lambda a: [0.3]
     planner.step_size = lambda a: 0.1
     planner.value = lambda space, obs, b: np.array([1.0, 0.0])
-    planner.reader = SimpleNamespace(entity_position=lambda obs, e: np.zeros(2))
+    planner.reader = SimpleNamespace(  # the robot at the origin, the tool against it ahead
+        entity_position=lambda obs, e: np.array([0.25, 0.0]) if e == 2 else np.zeros(2))
     aff = SimpleNamespace(model=SimpleNamespace(
         predict=lambda moved, c: (moved @ n)[:, None] * n[None]))
     push = SimpleNamespace(model=SimpleNamespace(predict=lambda shift, c: shift.copy()))
@@ -1448,6 +1449,7 @@ def _chain(planner: Planner, commands: np.ndarray, shifts: np.ndarray, turns_deg
         return planner._chain_command(aff, push, Binding(target=2, avoid=1), c6, c3, near,
                                       near.copy(), (0, slice(0, 2)), (0, slice(0, 2)),
                                       np.zeros(2), goal, [], None)
+    command.aff = aff
     return command
 
 
@@ -1457,7 +1459,8 @@ def test_a_convoy_planned_through_the_chain_pushes_on_the_side_that_lines_the_to
     round it (the line 23° off after it); a push 40° off moves it 0.094 m and turns the line
     back to 14°. With the drift costed the second is taken; without, the first. A command
     that would go further still but turns the robot 20° is never taken (`convoy_turn`): the
-    push's model cannot tell its arc from a straight push."""
+    push's model cannot tell its arc from a straight push. Nor one that does not drive the
+    robot into the tool (backing off, a turn on the spot), whatever the models predict of it."""
     from dataclasses import replace
 
     planner = _planner()
@@ -1474,14 +1477,18 @@ def test_a_convoy_planned_through_the_chain_pushes_on_the_side_that_lines_the_to
     planner.pc = replace(planner.pc, convoy_turn=8.0, convoy_drift_cost=3.0)
     shifts[:2] *= -1  # backing away: no command it may take brings the target nearer
     assert command() is None
+    shifts[:2] *= -1
+    shifts[1] = 0.0  # a turn on the spot: the models asked about a null move must not count
+    command.aff.model.predict = lambda moved, c: np.tile([0.05, 0.0], (len(moved), 1))
+    np.testing.assert_array_equal(command(), commands[0])
 
 
 def test_a_convoy_planned_through_the_chain_first_closes_on_the_object_behind_it():
     """`convoy_plan`: the robot 5 cm short of the tool behind it (more than `CONTACT_MARGIN`)
     drives to the contact place behind the tool facing the target's way (the navigator's
     choice, one action, under the pursuit "convoy through the chain"); a robot in front of the
-    tool, or one whose relation to it is past `realign`, leaves the step to the straight
-    convoy (None)."""
+    tool, one whose relation to it is past `realign`, or a command that already left this very
+    observation unchanged (`_idle_repeat`), leaves the step to the straight convoy (None)."""
     from dataclasses import replace
 
     planner, obs, layout = _avoid_scene()  # target obj1 at (0.6, 0), radius 0.12
@@ -1520,5 +1527,9 @@ def test_a_convoy_planned_through_the_chain_first_closes_on_the_object_behind_it
     assert plan() is None
     obs[layout.space("robot", Property.POSITION).slice] = [0.0, 0.0]
     planner.context = lambda aff, o, b: np.array([0.0, 0.3])  # round its side: past realign
+    assert plan() is None
+    assert len(acted) == 1
+    planner.context = lambda aff, o, b: np.array([0.3, 0.0])
+    planner._idle = (np.array([1.0, 1.0]), obs.copy())  # that command left this obs unchanged
     assert plan() is None
     assert len(acted) == 1
