@@ -595,14 +595,16 @@ class PlannerConfig:
     the other, and the target went up to 15° off (docs/algorithm.md). Off: the place alone
     (runs stored before keep it off)."""
 
-    convoy_plan: bool = False
+    convoy_plan: bool = True
     """With `convoy`: each action of a convoy (the robot behind the object, within `realign`
     of its place, the object within `realign` of its own) is chosen through the chain's
     forward models — the robot's motion, its push of the object, the object's push of the
     output — by the output's predicted distance to its goal and the two relations' predicted
     drift (`Planner._convoy_plan`). The convoy pushed straight drifts 6-10° a push, the target
     going along the tool-target line of centres, until a correction of about 18 robot-only
-    actions (docs/notes.md, twenty-third session). Off: the straight convoy step."""
+    actions (docs/notes.md, twenty-third session); retrained on thirty-five seeds the tool
+    task's robot-only share fell from 62.2 to 58.1 % (docs/algorithm.md). Off: the straight
+    convoy step (runs stored before keep it off)."""
 
     convoy_turn: float = 8.0
     """With `convoy_plan`: the largest predicted turn (degrees) of the robot's commands it
@@ -807,7 +809,7 @@ LEGACY_DEFAULTS: dict[str, dict[str, Any]] = {
                 "pusher_contacts": False, "skip_idle_repeats": False,
                 "drifting_places": False, "face_places": False,
                 "mirrored_relations": False, "convoy": False,
-                "convoy_facing": False, "short_subgoals": False},
+                "convoy_facing": False, "short_subgoals": False, "convoy_plan": False},
 }
 """Keys added after runs were first stored, with the value that reproduces what a run stored
 without them did (its defaults then): a stored run restores the learner it trained (the

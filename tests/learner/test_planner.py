@@ -1533,3 +1533,38 @@ def test_a_convoy_planned_through_the_chain_first_closes_on_the_object_behind_it
     planner._idle = (np.array([1.0, 1.0]), obs.copy())  # that command left this obs unchanged
     assert plan() is None
     assert len(acted) == 1
+
+
+def test_a_convoy_step_is_planned_through_the_chain_only_with_convoy_plan():
+    """`convoy_plan`: where the convoy holds (`_held_relation`), the step is the chain's
+    (`_convoy_plan`) when it answers, the straight convoy step when it does not or the option
+    is off."""
+    from dataclasses import replace
+
+    planner = _planner()
+    aff = _tool_level(np.array([0.08, 0.0]), lambda x, c: x)
+    planner._spreads = lambda a: [0.3]
+    planner.support_gap = lambda *args: 0.0
+    planner.needed_context = lambda *args: np.array([0.3, 0.0])
+    planner._as_near = lambda aff, c, needed, relations: needed
+    planner._gap = lambda *args: 0.1
+    planner._held_relation = lambda *args: (0, slice(0, 2))
+    planner.straight_move = lambda aff, delta, c, x: x
+    planner._convoy_step = lambda *args: 3
+    answer = []
+    planner._convoy_plan = lambda *args: answer[0] if answer else None
+
+    def step() -> int | None:
+        return planner._from_needed(aff, Binding(target=1, tool=2), np.array([0.05, 0.0]),
+                                    np.array([0.3, 0.0]), np.array([0.05, 0.0]), 1.0,
+                                    np.array([True]), SimpleNamespace(obs=None), 80, 0, 1.0,
+                                    False, np.array([1.2, 0.0]))
+
+    assert planner.pc.convoy_plan
+    answer.append(7)
+    assert step() == 7
+    answer.clear()
+    assert step() == 3  # the chain has no command: the straight step
+    answer.append(7)
+    planner.pc = replace(planner.pc, convoy_plan=False)
+    assert step() == 3
