@@ -409,17 +409,16 @@ class Planner:
         output's predicted distance to `goal` in steps plus, for each of the two relations,
         `convoy_drift_cost` × (its predicted gap to the one needed along the output's new
         way / `realign`)^`DRIFT_POWER`. Only commands whose predicted turn is at most
-        `convoy_turn` (the push's model, from the robot's net move, cannot tell an arc from a
-        straight push: 0.6 cm off at the median under 5°, 1.6-1.9 cm at 5-30°), that the
+        `convoy_turn` (the push's model, from the robot's net move, cannot tell an arc from
+        a straight push: 0.6 cm off at the median under 5°, 1.6-1.9 cm at 5-30°), that the
         robot's keep-outs allow, that drive the robot into the object and bring the output
-        `MIN_PROGRESS` of a step nearer (a turn on the spot pushes nothing, though the push's
-        model, asked about a null move against the object, can predict a push), never the
-        last command again from the observation it left unchanged
-        (`_idle_repeat`: traced, a robot blocked against the tool repeated one push 58
-        times). With the robot out of contact behind the object, the command that drives it
-        there facing the way. Returns 1 (an action taken), None when it does not apply: no pusher
-        acting from the robot's position, the robot not behind the object or its relation
-        past `realign`, no command (the convoy step then)."""
+        `MIN_PROGRESS` of a step nearer (a turn on the spot pushes nothing, though the
+        push's model, asked about a null move against the object, can predict a push:
+        traced, one taken 58 times), never the last command again from the observation it
+        left unchanged (`_idle_repeat`). With the robot out of contact behind the object,
+        the command that drives it there facing the way. Returns 1 (an action taken), None
+        when it does not apply: no pusher acting from the robot's position, the robot not
+        behind the object or its relation past `realign`, no command (the convoy step then)."""
         obs = actuator.obs
         sub_b = Binding(target=b.tool, avoid=b.target)
         pushers = [a for a in self.h.controllers(aff.input)
