@@ -125,6 +125,15 @@ def _slices(aff: Affordance) -> Iterator[tuple[int, slice]]:
         offset += dim
 
 
+def _relation_slice(aff: Affordance) -> tuple[int, slice] | None:
+    """(index, columns) of `aff`'s context relating its output to its input (the target's
+    relation to the tool for the tool affordance, the pushed object's to the robot for a push),
+    None if it has none."""
+    return next(((i, sl) for i, sl in _slices(aff)
+                 if aff.contexts[i].role is aff.output.role
+                 and aff.contexts[i].relative_to is aff.input.role), None)
+
+
 def _context_part(aff: Affordance, c: np.ndarray, space: RoleSpace) -> np.ndarray | None:
     """The columns of the context vector `c` of `aff` that hold `space` (None: not a context
     of `aff`)."""
@@ -426,9 +435,7 @@ class Planner:
         if not pushers or not self._navigating():
             return None
         push = pushers[0]
-        relation = next(((i, sl) for i, sl in _slices(push)
-                         if push.contexts[i].role is push.output.role
-                         and push.contexts[i].relative_to is Role.ROBOT), None)
+        relation = _relation_slice(push)
         if relation is None:
             return None
         robot = self.reader.entity_position(obs, 0)
@@ -496,7 +503,7 @@ class Planner:
               & (rem < np.linalg.norm(goal - output) - MIN_PROGRESS * step)
               & (shift @ toward >= MIN_PROGRESS * step)
               & (turn <= np.deg2rad(self.pc.convoy_turn))
-              & ~np.array([self._idle_repeat(command, obs) for command in pred.commands]))
+              & ~self._idle_repeats(pred.commands, obs))
         if not ok.any():
             return None
         return pred.commands[int(np.argmin(np.where(ok, cost, np.inf)))].copy()
@@ -596,11 +603,7 @@ class Planner:
         if self.pc.direct_remainders and (float(np.linalg.norm(delta))
                                           < self.pc.small_correction * self.step_size(aff)):
             return None
-        for i, sl in _slices(aff):
-            space = aff.contexts[i]
-            if space.role is aff.output.role and space.relative_to is aff.input.role:
-                return i, sl
-        return None
+        return _relation_slice(aff)
 
     def _steer_by_model(self, aff: Affordance, delta: np.ndarray, c: np.ndarray,
                         needed: np.ndarray, then: np.ndarray, relations: np.ndarray,
@@ -1087,11 +1090,16 @@ class Planner:
         it would repeat that action until the budget ran out. Traced in training: a robot
         backing into a fixed object 28 times, the last 28 actions of a tool goal's 40; in
         3.6-9.8 % of a run's actions the robot pushed on something that did not move."""
+        return bool(self._idle_repeats(np.atleast_2d(action), obs)[0])
+
+    def _idle_repeats(self, actions: np.ndarray, obs: np.ndarray) -> np.ndarray:
+        """`_idle_repeat` of each row of `actions`, the observation compared once."""
         if not self.pc.skip_idle_repeats or self._idle is None:
-            return False
+            return np.zeros(actions.shape[0], dtype=bool)
         last, left = self._idle
-        return bool(np.allclose(action, last, rtol=0.0, atol=1e-9)
-                    and np.allclose(obs, left, rtol=0.0, atol=IDLE_CHANGE))
+        if not np.allclose(obs, left, rtol=0.0, atol=IDLE_CHANGE):
+            return np.zeros(actions.shape[0], dtype=bool)
+        return np.all(np.abs(actions - last) <= 1e-9, axis=1)
 
     def heading_for(self, move: np.ndarray, obs: np.ndarray, b: Binding) -> np.ndarray | None:
         """The heading from which the robot's learned motion produces the displacement `move`

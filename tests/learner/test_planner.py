@@ -1448,7 +1448,7 @@ def _chain(planner: Planner, commands: np.ndarray, shifts: np.ndarray, turns_deg
     def command() -> np.ndarray | None:
         return planner._chain_command(aff, push, Binding(target=2, avoid=1), c6, c3, near,
                                       near.copy(), (0, slice(0, 2)), (0, slice(0, 2)),
-                                      np.zeros(2), goal, [], None)
+                                      np.zeros(2), goal, [], np.zeros(3))
     command.aff = aff
     return command
 
@@ -1460,7 +1460,8 @@ def test_a_convoy_planned_through_the_chain_pushes_on_the_side_that_lines_the_to
     back to 14°. With the drift costed the second is taken; without, the first. A command
     that would go further still but turns the robot 20° is never taken (`convoy_turn`): the
     push's model cannot tell its arc from a straight push. Nor one that does not drive the
-    robot into the tool (backing off, a turn on the spot), whatever the models predict of it."""
+    robot into the tool (backing off, a turn on the spot), whatever the models predict of it,
+    nor the last command again from the observation it left unchanged: the next best then."""
     from dataclasses import replace
 
     planner = _planner()
@@ -1470,6 +1471,9 @@ def test_a_convoy_planned_through_the_chain_pushes_on_the_side_that_lines_the_to
     commands = np.array([[1.0, 0.9], [1.0, 0.8], [1.0, 0.2]])
     command = _chain(planner, commands, shifts, np.array([0.0, 0.0, 20.0]), -20.0)
     np.testing.assert_array_equal(command(), commands[1])
+    planner._idle = (commands[1].copy(), np.zeros(3))  # it left this observation unchanged
+    np.testing.assert_array_equal(command(), commands[0])  # the next best, not a repeat
+    planner._idle = None
     planner.pc = replace(planner.pc, convoy_drift_cost=0.0)
     np.testing.assert_array_equal(command(), commands[0])
     planner.pc = replace(planner.pc, convoy_turn=30.0)
