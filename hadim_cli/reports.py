@@ -42,18 +42,18 @@ def affordance_rows(session: Session) -> list[dict[str, Any]]:
         if aff.classifier is not None:
             entities = world.layout.entities
             feats = [learner.reader.visual_features(obs, i) for i in range(len(entities))]
-            import numpy as np
-
             ok = aff.classifier.accepts(np.stack(feats))
             accepted = [entity_label(e, scene)
                         for e, a in zip(entities, ok, strict=True) if a]
         frame = (aff.contexts[aff.model.frame.axis].name
                  if isinstance(aff.model, FramedModel) else None)
+        moved = learner.planner.effect(aff.model.data()[2]) if aff.model.n else np.zeros(0)
         rows.append({
             "id": aff.id, "input": aff.input.name, "output": aff.output.name,
             "context": [c.name for c in aff.contexts], "frame": frame,
             "created_at": aff.created_at,
             "competence": round(float(aff.competence), 4), "data": len(aff.rows),
+            "effect": int(moved.sum()), "goals": aff.interest.n_goals,
             "interest": round(float(aff.interest.interest), 4), "accepts": accepted,
         })
     return rows
@@ -88,16 +88,20 @@ def render_errors(console: Console, rows: list[dict[str, Any]], iteration: int) 
 
 
 def render_h_table(console: Console, rows: list[dict[str, Any]], iteration: int) -> None:
-    table = Table(title=f"H at iteration {iteration} ({len(rows)} affordances)")
+    table = Table(title=f"H at iteration {iteration} ({len(rows)} affordances)",
+                  caption="born: the iteration it was created; comp.: its competence; "
+                          "data: the rows its models are fitted on; moved: those whose output "
+                          "changed (where it acts); goals: those its interest map recorded")
     table.add_column("id", no_wrap=True)
     table.add_column("input → output", no_wrap=True)
-    table.add_column("context", no_wrap=True)
-    for col in ("created", "competence", "data"):
-        table.add_column(col, justify="right")
+    table.add_column("context", min_width=13)  # wraps before "(frame)"
+    for col in ("born", "comp.", "data", "moved", "goals"):
+        table.add_column(col, justify="right", no_wrap=True)
     for r in rows:
         table.add_row(f"A{r['id']}", f"{r['input']}\n→ {r['output']}",
                       _names(f"{c} (frame)" if c == r["frame"] else c for c in r["context"]),
-                      str(r["created_at"]), f"{r['competence']:.3f}", str(r["data"]))
+                      str(r["created_at"]), f"{r['competence']:.3f}", str(r["data"]),
+                      str(r["effect"]), str(r["goals"]))
     console.print(table)
     console.print("p_A, on the objects of the push-object task's scene (green: pushable, red: "
                   "fixed):", markup=False, highlight=False)

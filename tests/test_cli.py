@@ -279,6 +279,39 @@ def test_affordances_now_at_and_timeline(runner, trained, tmp_path):
                                   trained).stdout
 
 
+def test_affordances_count_where_each_acts_and_its_goals(runner, trained):
+    """`effect`: the affordance's rows whose output changed, recounted here from the stored D;
+    `goals`: its goal-babbling attempts, recounted from the stored learning episodes."""
+    import numpy as np
+
+    from hadim_cli import runs
+    from hadim_cli.learner.spaces import Property, Role
+
+    h = {a["id"]: a for a in json.loads(
+        ok(runner, "affordances", "run-1", "--json", "--store", trained).stdout)}
+    with runs.open_store(str(trained), create=False, writes=False) as st:
+        session = runs.restore_session(st, st.get_run("run-1"))
+        outcomes = st.dataset("run-1").outcomes
+        attempts = [le["affordance"] for e in st.episodes("run-1")
+                    for le in e.extra["learning_episodes"] if le["mode"] == "goal"]
+    learner = session.learner
+    layout, eps = learner.reader.layout, learner.config.zero_eps
+    checked = 0
+    for aff in learner.hierarchy:
+        row = h[aff.id]
+        assert 0 <= row["effect"] <= row["data"]
+        assert row["goals"] == attempts.count(aff.id)
+        if aff.output.prop is Property.POSITION:  # the robot's moves, an object's
+            who = (np.zeros(len(aff.rows.t), dtype=int) if aff.output.role is Role.ROBOT
+                   else aff.rows.target)
+            moves = np.stack([outcomes[t, layout.space(layout.entities[e], Property.POSITION)
+                                       .slice] for t, e in zip(aff.rows.t, who, strict=True)])
+            moved = int((np.linalg.norm(moves, axis=1) > eps).sum())
+            assert row["effect"] == moved > 0
+            checked += moved < row["data"]  # (an object's rows also hold some where it stayed)
+    assert checked and sum(h[a]["goals"] for a in h) > 0
+
+
 def test_eval_json_and_a_user_points_file(runner, trained, points_file, tmp_path):
     out = json.loads(ok(runner, "eval", "run-1", "--task", "move-robot", "--at", 50, "--json",
                         "--store", trained).stdout)
