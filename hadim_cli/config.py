@@ -615,6 +615,22 @@ class PlannerConfig:
     """With `convoy_plan`: the cost, in steps of the output's way, of a relation predicted to
     drift to `realign` (where a correction of two trips would follow)."""
 
+    stall_trips: bool = True
+    """A sub-goal's correction shorter than `small_correction` steps is spared a trip while
+    the goal it serves can do something else; once that goal stalled (its last step moved
+    nothing) while still more than `small_correction` of its own steps away, the next one is
+    made. Off: always spared: a staging whose tool was a few centimetres off its place, the
+    tool's pusher refused the trip, the tool level asked for the same staging again, and the
+    point ended with its target unmoved (seed 59 at 2000: 0.02; docs/algorithm.md). Runs
+    stored before keep it off."""
+
+    room_places: bool = True
+    """A place for the robot or an object closer to a wall than the body's radius (outside the
+    room's position space, less that radius) is one it cannot take: the step that needs it is
+    not taken. Off: driven toward all the same — in training a tool goal whose target stood
+    against a wall sent the tool toward a place beyond the wall for the whole 40-action
+    budget (docs/algorithm.md). Runs stored before keep it off."""
+
     short_subgoals: bool = True
     """A sub-goal shorter than its affordance's typical step counts as reached within
     `subgoal_tolerance` of its own length, not of a step: the convoy's last step asked the
@@ -809,7 +825,8 @@ LEGACY_DEFAULTS: dict[str, dict[str, Any]] = {
                 "pusher_contacts": False, "skip_idle_repeats": False,
                 "drifting_places": False, "face_places": False,
                 "mirrored_relations": False, "convoy": False,
-                "convoy_facing": False, "short_subgoals": False, "convoy_plan": False},
+                "convoy_facing": False, "short_subgoals": False, "convoy_plan": False,
+                "stall_trips": False, "room_places": False},
 }
 """Keys added after runs were first stored, with the value that reproduces what a run stored
 without them did (its defaults then): a stored run restores the learner it trained (the

@@ -191,6 +191,9 @@ class Planner:
         self._convoy_output = -1
         """While a `convoy` move of an object is executed: the entity that object pushes (the
         target, for the tool); -1 otherwise."""
+        self._spare_small = True
+        """Whether a sub-goal's small correction is spared a trip (`stall_trips`): not once
+        the outermost goal stalled while still far."""
         self._idle: tuple[np.ndarray, np.ndarray] | None = None
         """(the action, the observation after it) when the last primitive action moved
         nothing (`skip_idle_repeats`)."""
@@ -260,14 +263,18 @@ class Planner:
             if dist <= max(self.config.reach_tolerance * start, self.config.zero_eps, slack):
                 break
             delta = gap if dist <= step else gap * (step / dist)
+            if depth == 0:
+                self._spare_small = (not self.pc.stall_trips or stalls == 0
+                                     or dist < self.pc.small_correction * step)
             if self.tool_guide is not None and aff.input.role is Role.TOOL:
                 done = self.execute(aff.input, self.tool_guide(actuator.obs, goal, b), b,
                                     actuator, budget - used, depth, exclude=aff.id)
             else:
                 done = self._one_step(aff, b, delta, actuator, budget - used, depth,
                                       remaining=dist / max(step, 1e-9),
-                                      spare_trips=depth > 0 or (dist < start
-                                                                and self._risky_trip(aff, b)),
+                                      spare_trips=(self._spare_small if depth > 0
+                                                   else dist < start
+                                                   and self._risky_trip(aff, b)),
                                       goal=goal)
             used += max(done, 0)
             if done <= 0:
@@ -1187,6 +1194,8 @@ class Planner:
                 np.linalg.norm(goal - self.reader.entity_position(actuator.obs, b.avoid))
                 < self._avoid_distance(actuator.obs, b)):
             return -1
+        if self.pc.room_places and not self._inside_room(goal, driven, sub_b, actuator.obs):
+            return -1
         starting = not self._placed_for  # the planner replans every action: a trip goes on
         before = actuator.obs
         target_entity = sub_b.target if driven.role is not Role.ROBOT else -1
@@ -1213,6 +1222,17 @@ class Planner:
             if used >= budget or actuator.exhausted:
                 break
         return used
+
+    def _inside_room(self, place: np.ndarray, driven: RoleSpace, b: Binding,
+                     obs: np.ndarray) -> bool:
+        """Whether the body `driven` moves (the robot, or `b`'s target) can stand at the
+        position `place` (`room_places`): no nearer a wall than its radius. The room is the
+        robot's position space, which the layout gives the learner."""
+        if driven.prop is not Property.POSITION:
+            return True
+        body = 0 if driven.role is Role.ROBOT else b.target
+        half = np.asarray(self.reader.layout.space(ROBOT, Property.POSITION).high)
+        return bool(np.all(np.abs(place) <= half - self.reader.entity_radius(obs, body)))
 
     def _count_trip(self, starting: bool, obs: np.ndarray) -> None:
         """Count a trip that began from the observation `obs`, when it is a new one."""

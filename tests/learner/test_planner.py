@@ -866,7 +866,8 @@ def test_the_place_of_an_action_pusher_is_driven_to_facing_its_heading(route_sea
     from hadim_cli.learner.navigation import ROBOT_HEADING
 
     planner, aff = _action_pusher(True)
-    planner.pc = replace(planner.pc, route_search=route_search)
+    # (this reader has no room: `room_places` is tested on its own)
+    planner.pc = replace(planner.pc, route_search=route_search, room_places=False)
     places, searched = [], []
     obs_heading = np.array([0.0, 1.0])
 
@@ -996,7 +997,7 @@ def test_a_trip_that_only_turns_is_driven_with_its_heading():
     from hadim_cli.learner.navigation import ROBOT_HEADING
 
     planner, aff = _action_pusher(False)  # the heading is not in the needed context
-    planner.pc = replace(planner.pc, route_search=True)
+    planner.pc = replace(planner.pc, route_search=True, room_places=False)  # (no room here)
     aff.input = ROBOT_POSITION
     places = []
 
@@ -1572,3 +1573,98 @@ def test_a_convoy_step_is_planned_through_the_chain_only_with_convoy_plan():
     answer.append(7)
     planner.pc = replace(planner.pc, convoy_plan=False)
     assert step() == 3
+
+
+@pytest.mark.parametrize("room_places", [True, False])
+def test_a_place_nearer_a_wall_than_the_body_is_not_taken(room_places):
+    """`room_places`: the robot's place 0.1 m from a wall (its radius is 0.15 m) and the tool's
+    place beyond the wall are refused (-1, nothing driven); places a body fits are driven
+    to. Off, every place is driven to (a tool goal sent the tool toward a place beyond the
+    wall for its whole budget)."""
+    from dataclasses import replace
+
+    from hadim_cli.learner.planner import Attempt, Binding
+    from hadim_cli.learner.spaces import SpaceReader
+    from hadim_cli.world.layout import LayoutBounds, ObservationLayout
+
+    layout = ObservationLayout.build(2, 4, LayoutBounds(2, 2, 1.5, 0.25, 0.6))  # ±2 m
+    obs = np.zeros(layout.size)
+    obs[layout.space("robot", Property.RADIUS).slice] = 0.15
+    obs[layout.space("obj1", Property.RADIUS).slice] = 0.1
+    config = load_config()
+    planner = Planner(SimpleNamespace(controllers=lambda space: []),
+                      SpaceReader(layout, relation_offset=0.3), config.learner,
+                      replace(config.planner, room_places=room_places))
+    planner._navigating = lambda: False
+    planner._waypoints = lambda driven, goal, obs, b, mover: [goal]
+    driven_to = []
+
+    def reach(sub, b, goal, actuator, budget, depth=0):
+        driven_to.append((b.target, tuple(goal)))
+        return Attempt(0.1, 0.0, 2)
+
+    planner.reach = reach
+    world = SimpleNamespace(obs=obs, exhausted=False)
+    aff = SimpleNamespace(id=6, contexts=(RoleSpace(Role.TARGET, Property.POSITION, Role.TOOL),))
+    tool = Binding(target=1)  # the tool, driven as its pusher's target
+    sub = SimpleNamespace(id=3)
+
+    def place(driven, goal, b):
+        return planner._place(aff, Binding(target=2, tool=1), 0, driven, np.array(goal), b,
+                              sub, [1.0], world, 40, 1, None)
+
+    refused = -1 if room_places else 2
+    assert place(ROBOT_POSITION, [1.9, 0.0], Binding()) == refused  # 0.10 m from the wall
+    assert place(ROBOT_POSITION, [0.0, -1.9], Binding()) == refused
+    assert place(TARGET_POSITION, [0.3, 2.05], tool) == refused  # beyond the wall
+    assert place(ROBOT_POSITION, [1.84, -1.84], Binding()) == 2  # 0.16 m from both: fits
+    assert place(TARGET_POSITION, [-1.89, 0.5], tool) == 2  # the tool's 0.1 m fits
+    assert len(driven_to) == (2 if room_places else 5)
+
+
+def _stalling_chain(stall_trips: bool, start: float):
+    """A goal 0.1 m steps away whose every step is a sub-goal of 2 cm (a small correction for
+    the sub-affordance's 0.1 m step); the sub-level refuses a trip whenever it is told to
+    spare one, and else makes it, moving the output 2 cm. Returns (actions used, the
+    `spare_trips` each sub-step was given)."""
+    from dataclasses import replace
+
+    from hadim_cli.learner.planner import Binding
+
+    config = load_config()
+    planner = Planner(Hierarchy(), None, config.learner,
+                      replace(config.planner, stall_trips=stall_trips))
+    planner.step_size = lambda a: 0.1
+    planner.value = lambda space, obs, b: obs.copy()
+    world = SimpleNamespace(obs=np.array([start, 0.0]), exhausted=False)
+    top = SimpleNamespace(id=6, input=ROBOT_POSITION, output=TARGET_POSITION)
+    sub = SimpleNamespace(id=3, input=ROBOT_POSITION, output=TARGET_POSITION)
+    spared = []
+
+    def one_step(aff, b, delta, actuator, budget, depth, remaining=1.0, spare_trips=True,
+                 goal=None):
+        if aff is top:  # its step: a sub-goal 2 cm along the way
+            return planner.reach(sub, b, actuator.obs + 0.02 * np.sign(delta), actuator,
+                                 budget, depth + 1).actions
+        spared.append(spare_trips)
+        if spare_trips:
+            return -1
+        actuator.obs = actuator.obs + np.clip(delta, -0.02, 0.02)
+        return 1
+
+    planner._one_step = one_step
+    used = planner.reach(top, Binding(target=1), np.zeros(2), world, 40).actions
+    return used, spared
+
+
+def test_a_small_correction_is_made_once_the_goal_it_serves_stalled_far_from_its_end():
+    """`stall_trips`: a sub-goal's small correction is spared a trip at first; when the goal it
+    serves then stalls (its step moved nothing) while more than `small_correction` of its
+    steps from its end, the next one is made, and the goal goes on. Off (and near the goal's
+    end either way): spared every time, and the goal stalls twice and gives up unmoved."""
+    used, spared = _stalling_chain(True, 0.3)
+    assert spared[:2] == [True, False] and used > 0
+    used, spared = _stalling_chain(False, 0.3)
+    assert spared == [True, True] and used == 0
+    used, spared = _stalling_chain(True, 0.04)  # within 0.5 × its 0.1 m step: spared
+    assert spared == [True, True] and used == 0
