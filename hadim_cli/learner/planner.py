@@ -1231,8 +1231,13 @@ class Planner:
         if driven.prop is not Property.POSITION:
             return True
         body = 0 if driven.role is Role.ROBOT else b.target
+        return self._fits_room(place, self.reader.entity_radius(obs, body))
+
+    def _fits_room(self, centre: np.ndarray, radius: float, gap: float = 0.0) -> bool:
+        """Whether a disc of `radius` centred at `centre` lies in the room with `gap` to
+        spare from every wall: the room is the robot's position space (centred on 0)."""
         half = np.asarray(self.reader.layout.space(ROBOT, Property.POSITION).high)
-        return bool(np.all(np.abs(place) <= half - self.reader.entity_radius(obs, body)))
+        return bool(np.all(np.abs(centre) <= half - radius - gap))
 
     def _count_trip(self, starting: bool, obs: np.ndarray) -> None:
         """Count a trip that began from the observation `obs`, when it is a new one."""
@@ -1323,14 +1328,13 @@ class Planner:
             return None
         u = away / length
         robot_r = self.reader.entity_radius(obs, 0)
-        half = np.asarray(self.reader.layout.space(ROBOT, Property.POSITION).high)
         discs = Obstacles(np.array([self.reader.entity_position(obs, e) for e in obstacles]),
                           np.array([self._clearance(obs, e, mover_radius) for e in obstacles]))
         for back in np.arange(1, round(LINE_REACH / LINE_STEP) + 1) * LINE_STEP:
             point = goal + back * u
             pusher = point + (mover_radius + robot_r) * u
-            if (np.any(np.abs(point) > half - mover_radius - WALL_GAP)
-                    or np.any(np.abs(pusher) > half - robot_r - WALL_GAP)):
+            if not (self._fits_room(point, mover_radius, WALL_GAP)
+                    and self._fits_room(pusher, robot_r, WALL_GAP)):
                 return None  # further back is further out of the room
             if discs.holds(point):
                 continue
