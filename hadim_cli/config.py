@@ -631,6 +631,16 @@ class PlannerConfig:
     against a wall sent the tool toward a place beyond the wall for the whole 40-action
     budget (docs/algorithm.md). Runs stored before keep it off."""
 
+    solid_bodies: bool = True
+    """A needed relative position that places an object overlapping another (shorter than
+    contact: a young model's fit, or rows from both sides of an object averaging to a place
+    inside it) is brought out to contact on its own bearing: no object is staged inside
+    another. The robot's place pressed into the object it pushes stands (its trip ends
+    pushing).
+    Off: the fit stands, and a tool asked to stand inside its target shoves the target while
+    it is staged, the place behind it moving with every push (seed 10 at 2000: 0.53;
+    docs/algorithm.md). Runs stored before keep it off."""
+
     short_subgoals: bool = True
     """A sub-goal shorter than its affordance's typical step counts as reached within
     `subgoal_tolerance` of its own length, not of a step: the convoy's last step asked the
@@ -826,7 +836,7 @@ LEGACY_DEFAULTS: dict[str, dict[str, Any]] = {
                 "drifting_places": False, "face_places": False,
                 "mirrored_relations": False, "convoy": False,
                 "convoy_facing": False, "short_subgoals": False, "convoy_plan": False,
-                "stall_trips": False, "room_places": False},
+                "stall_trips": False, "room_places": False, "solid_bodies": False},
 }
 """Keys added after runs were first stored, with the value that reproduces what a run stored
 without them did (its defaults then): a stored run restores the learner it trained (the

@@ -802,7 +802,31 @@ class Planner:
         if self.pc.relations_seen:
             needed = self._seen_relation(aff, needed, ctx[near][weights > 1e-6],
                                          ctx[near][best])
+        if self.pc.solid_bodies:
+            needed = self._out_of_bodies(aff, needed, relations)
         return needed
+
+    def _out_of_bodies(self, aff: Affordance, needed: np.ndarray,
+                       relations: np.ndarray) -> np.ndarray:
+        """`needed` with each relative position of `relations` that places an object (not
+        the robot) overlapping another — shorter than `relation_offset`, the reading at
+        contact — brought to contact on its own bearing (`solid_bodies`). A young tool
+        affordance asked for a tool 7.6 cm from its target's centre, 14 cm inside it: staged
+        there, the tool shoved the target, the place behind it moved with every push, and the
+        point's budget went to the chase. The robot's own place pressed into the object it
+        pushes stands: its trip ends pushing, as the push's rows were made (brought out too,
+        the tool task's robot-only share rose from 57.6 to 61.7 %, seven learners)."""
+        staged = [sl for i, sl in _slices(aff) if relations[i]
+                  and aff.contexts[i].relative_to not in (None, Role.ROBOT)
+                  and aff.contexts[i].prop is Property.POSITION]
+        contact = self.reader.relation_offset if staged else None
+        if contact is None:
+            return needed
+        out = needed.copy()
+        for sl in staged:
+            if 1e-9 < float(np.linalg.norm(needed[sl])) < contact:
+                out[sl] = _at_length(needed[sl], contact)
+        return out
 
     @staticmethod
     def _mirrored(aff: Affordance, ctx: np.ndarray, y: np.ndarray, delta: np.ndarray

@@ -18,6 +18,7 @@ from hadim_cli.learner.spaces import ACTION, Property, Role, RoleSpace
 
 TARGET_ROBOT = RoleSpace(Role.TARGET, Property.POSITION, Role.ROBOT)
 TARGET_POSITION = RoleSpace(Role.TARGET, Property.POSITION)
+TARGET_TOOL = RoleSpace(Role.TARGET, Property.POSITION, Role.TOOL)
 RADIUS = RoleSpace(Role.TARGET, Property.RADIUS)
 
 
@@ -1178,6 +1179,49 @@ def test_the_needed_context_checks_its_relation_against_the_rows_when_asked():
     planner.pc = replace(planner.pc, relations_seen=True)
     needed = planner.needed_context(aff, delta, c, relations)
     assert np.linalg.norm(needed[1:]) > 0.2  # a row's: radius + 0.15 from the centre
+
+
+def test_a_needed_relation_that_stages_an_object_inside_another_is_brought_out_to_contact():
+    """`planner.solid_bodies`: a relative position shorter than the reading at contact (the
+    relation offset, 0.3 here) asks for one body inside the other. An object (the tool) can
+    be staged there only by shoving the other (a young tool affordance asked for a tool 14 cm
+    inside its target): brought to contact on its own bearing. The robot's place pressed
+    into the object it pushes stands (its trip ends pushing), and so do a relation at or
+    beyond contact, one the planner does not drive, and a context that is not a relative
+    position."""
+    planner = _planner()
+    planner.reader = SimpleNamespace(relation_offset=0.3)
+    aff = SimpleNamespace(contexts=(TARGET_TOOL, TARGET_TOOL, RADIUS, TARGET_ROBOT),
+                          model=SimpleNamespace(context_dims=(2, 2, 1, 2)))
+    needed = np.array([-0.06, -0.08, 0.0, 0.1, 0.05, -0.1, 0.0])
+    driven = np.array([True, False, True, True])
+    out = planner._out_of_bodies(aff, needed, driven)
+    assert np.allclose(out[:2], [-0.18, -0.24])  # 0.3 on the bearing of (-0.06, -0.08)
+    assert np.allclose(out[2:], needed[2:])
+    apart = np.array([0.0, 0.31, 0.0, 0.1, 0.05, -0.1, 0.0])
+    assert np.allclose(planner._out_of_bodies(aff, apart, driven), apart)
+
+
+def test_the_needed_context_keeps_bodies_apart_when_asked():
+    """`needed_context` hands its fit to `_out_of_bodies` with `solid_bodies` on: a tool's
+    place fitted inside the target (stood in for here) comes back at contact on its bearing;
+    off, the fit stands."""
+    from dataclasses import replace
+
+    rng = np.random.default_rng(0)
+    model = _push_like_model(rng, outliers=0)
+    aff = SimpleNamespace(model=model, contexts=(RADIUS, TARGET_TOOL), id=1,
+                          output=TARGET_POSITION)
+    planner = _planner()
+    planner.reader = SimpleNamespace(relation_offset=0.3)  # relations read from surfaces
+    planner._relation_at = lambda dy, rel, w: np.array([-0.05, 0.0])  # a fit inside
+    c = np.array([0.12, 0.3, 0.0])
+    relations = np.array([False, True])
+    delta = np.array([0.05, 0.0])
+    planner.pc = replace(planner.pc, solid_bodies=False)
+    assert np.allclose(planner.needed_context(aff, delta, c, relations)[1:], [-0.05, 0.0])
+    planner.pc = replace(planner.pc, solid_bodies=True)
+    assert np.allclose(planner.needed_context(aff, delta, c, relations)[1:], [-0.3, 0.0])
 
 
 def test_a_trip_keeps_out_of_every_object_and_reaches_the_one_it_is_taken_next_to():
