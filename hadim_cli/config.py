@@ -636,10 +636,9 @@ class PlannerConfig:
     contact: a young model's fit, or rows from both sides of an object averaging to a place
     inside it) is brought out to contact on its own bearing: no object is staged inside
     another. The robot's place pressed into the object it pushes stands (its trip ends
-    pushing).
-    Off: the fit stands, and a tool asked to stand inside its target shoves the target while
-    it is staged, the place behind it moving with every push (seed 10 at 2000: 0.53;
-    docs/algorithm.md). Runs stored before keep it off."""
+    pushing). Off: the fit stands, and a tool asked to stand inside its target shoves the
+    target while it is staged, the place behind it moving with every push (seed 10 at 2000:
+    0.53; docs/algorithm.md). Runs stored before keep it off."""
 
     short_subgoals: bool = True
     """A sub-goal shorter than its affordance's typical step counts as reached within
