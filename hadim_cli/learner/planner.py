@@ -819,9 +819,9 @@ class Planner:
         staged = [sl for i, sl in _slices(aff) if relations[i]
                   and aff.contexts[i].relative_to not in (None, Role.ROBOT)
                   and aff.contexts[i].prop is Property.POSITION]
-        contact = self.reader.relation_offset if staged else None
-        if contact is None:
+        if not staged or self.reader.relation_offset is None:
             return needed
+        contact = self.reader.relation_offset
         out = needed.copy()
         for sl in staged:
             if 1e-9 < float(np.linalg.norm(needed[sl])) < contact:
