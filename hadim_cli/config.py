@@ -615,6 +615,18 @@ class PlannerConfig:
     """With `convoy_plan`: the cost, in steps of the output's way, of a relation predicted to
     drift to `realign` (where a correction of two trips would follow)."""
 
+    convoy_trailing: bool = True
+    """With `convoy`: an object behind the output on the bearing of its place but short of
+    it (the tool trailing behind the target, not yet touching it) holds the relation for a
+    convoy: the relation's gap to its place is taken at its own length (`Planner._trailing`),
+    and the convoy's first push closes the distance. Off: the distance counts as drift, and a
+    tool staged a few centimetres short, or set out behind the target from the start, cost a
+    trip to the place at contact before the convoy (runs stored before keep it off)."""
+
+    convoy_depth: int = 1
+    """With `convoy_plan`: how many actions in a row the convoy imagines through the chain's
+    forward models before it chooses the first."""
+
     stall_trips: bool = True
     """A sub-goal's correction shorter than `small_correction` steps is spared a trip while
     the goal it serves can do something else; once that goal stalled (its last step moved
@@ -669,6 +681,8 @@ class PlannerConfig:
             _check(value >= 0, f"planner.{name}", "must be >= 0", value)
         _check(0.0 <= self.convoy_turn <= 180.0, "planner.convoy_turn", "must be in [0, 180]",
                self.convoy_turn)
+        _check(self.convoy_depth >= 1, "planner.convoy_depth", "must be >= 1",
+               self.convoy_depth)
 
 
 @dataclass(frozen=True)
@@ -835,7 +849,8 @@ LEGACY_DEFAULTS: dict[str, dict[str, Any]] = {
                 "drifting_places": False, "face_places": False,
                 "mirrored_relations": False, "convoy": False,
                 "convoy_facing": False, "short_subgoals": False, "convoy_plan": False,
-                "stall_trips": False, "room_places": False, "solid_bodies": False},
+                "stall_trips": False, "room_places": False, "solid_bodies": False,
+                "convoy_trailing": False},
 }
 """Keys added after runs were first stored, with the value that reproduces what a run stored
 without them did (its defaults then): a stored run restores the learner it trained (the

@@ -175,22 +175,48 @@ class Navigator:
 
     def _predict(self, obs: np.ndarray, target: int, tool: int, mover: Affordance,
                  turner: Affordance | None) -> Prediction:
-        n = self.commands.shape[0]
-        position = self.reader.entity_position(obs, 0)
-        heading = self.reader.value_now(ROBOT_HEADING, obs)
-        c = self._context(mover, obs, target, tool)
-        shift = mover.model.predict(self.commands, np.repeat(c[None], n, 0) if c.size else None)
+        shift, after = self._motions(obs[None], target, tool, mover, turner)
+        return self._prediction(self.reader.entity_position(obs, 0),
+                                self.reader.value_now(ROBOT_HEADING, obs), shift[0], after[0])
+
+    def motions(self, obs: np.ndarray, target: int = -1, tool: int = -1
+                ) -> tuple[np.ndarray, np.ndarray] | None:
+        """Every candidate command's predicted displacement and heading after it (each
+        (B, N, 2)) from each of the observations `obs` (B, D) — poses the planner imagines
+        as well as the one observed (None: no motion model yet)."""
+        if self.motion is not None:
+            out = [self.motion(o, self.commands) for o in obs]
+            return np.stack([s for s, _ in out]), np.stack([a for _, a in out])
+        mover, turner = self.movers()
+        if mover is None:
+            return None
+        return self._motions(obs, target, tool, mover, turner)
+
+    def _motions(self, obs: np.ndarray, target: int, tool: int, mover: Affordance,
+                 turner: Affordance | None) -> tuple[np.ndarray, np.ndarray]:
+        b, n = obs.shape[0], self.commands.shape[0]
+        heading = np.repeat(np.stack([self.reader.value_now(ROBOT_HEADING, o) for o in obs]),
+                            n, 0)
+        commands = np.tile(self.commands, (b, 1))
+        c = self._contexts(mover, obs, target, tool, n)
+        shift = mover.model.predict(commands, c)
         if turner is not None:
-            ct = self._context(turner, obs, target, tool)
-            turned = turner.model.predict(self.commands,
-                                          np.repeat(ct[None], n, 0) if ct.size else None)
+            turned = turner.model.predict(commands, self._contexts(turner, obs, target, tool, n))
             after = unit(heading + turned)
-            after[np.linalg.norm(after, axis=1) < 1e-9] = heading
+            still = np.linalg.norm(after, axis=1) < 1e-9
+            after[still] = heading[still]
         else:
             # No heading model yet: the robot is taken to face the way it moved.
             after = np.where(np.linalg.norm(shift, axis=1, keepdims=True) > 1e-6, unit(shift),
                              heading)
-        return self._prediction(position, heading, shift, after)
+        return shift.reshape(b, n, 2), after.reshape(b, n, 2)
+
+    def _contexts(self, aff: Affordance, obs: np.ndarray, target: int, tool: int,
+                  n: int) -> np.ndarray | None:
+        """`aff`'s context in each observation of `obs`, each repeated for `n` commands."""
+        if not aff.contexts:
+            return None
+        return np.repeat(np.stack([self._context(aff, o, target, tool) for o in obs]), n, 0)
 
     def _prediction(self, position: np.ndarray, heading: np.ndarray, shift: np.ndarray,
                     after: np.ndarray) -> Prediction:
@@ -260,13 +286,19 @@ class Navigator:
         """Mask of the commands that, half-way or at the end, keep the robot out of every
         keep-out entity's clearance, or within it neither below its floor nor more than its
         slack closer (going round it); moving away is always allowed."""
-        ok = np.ones(pred.commands.shape[0], dtype=bool)
-        robot = self.reader.entity_position(obs, 0)
+        return self.allowed_many(obs[None], pred.half[None], pred.end[None], keepouts)[0]
+
+    def allowed_many(self, obs: np.ndarray, half: np.ndarray, end: np.ndarray,
+                     keepouts: list[Keepout]) -> np.ndarray:
+        """`allowed` from each of the observations `obs` (B, D), for the robot positions
+        half-way through and after each command, `half` and `end` (B, N, 2): a (B, N) mask."""
+        ok = np.ones(end.shape[:2], dtype=bool)
+        robot = np.stack([self.reader.entity_position(o, 0) for o in obs])[:, None]
         for k in keepouts:
-            centre = self.reader.entity_position(obs, k.entity)
-            now = float(np.linalg.norm(robot - centre))
-            for pts in (pred.half, pred.end):
-                d = np.linalg.norm(pts - centre, axis=1)
+            centre = np.stack([self.reader.entity_position(o, k.entity) for o in obs])[:, None]
+            now = np.linalg.norm(robot - centre, axis=-1)
+            for pts in (half, end):
+                d = np.linalg.norm(pts - centre, axis=-1)
                 closer = d < now - 1e-4
                 ok &= ~((d < k.clearance) & closer & ((d < k.floor) | (d < now - k.slack)))
         return ok

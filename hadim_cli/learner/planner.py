@@ -350,7 +350,7 @@ class Planner:
         needed = self.needed_context(aff, delta, c, relations | self._poses(aff))
         near = self._as_near(aff, c, needed, relations)
         off = self._gap(aff, spreads, c, near, relations)
-        held = self._held_relation(aff, b, delta, off, goal) if self.pc.convoy else None
+        held = self._convoy_hold(aff, b, delta, c, near, relations, spreads, goal)
         if held is not None:
             if self.pc.convoy_plan and goal is not None:
                 done = self._convoy_plan(aff, b, delta, c, near, held, actuator, goal)
@@ -448,7 +448,6 @@ class Planner:
         robot = self.reader.entity_position(obs, 0)
         mover = self._entity(aff.input, b)
         pushed = self.reader.entity_position(obs, mover)
-        output = self.reader.entity_position(obs, self._entity(aff.output, b))
         u = delta / max(float(np.linalg.norm(delta)), 1e-12)
         if float((pushed - robot) @ u) <= 0.0:
             return None
@@ -466,8 +465,8 @@ class Planner:
             command = self.navigator.choose(obs, Place(pushed - contact * u, u, CONTACT_MARGIN),
                                             keep, sub_b.target, sub_b.tool)
         else:
-            command = self._chain_command(aff, push, sub_b, c, c3, near, n3, held,
-                                          (i3, sl3), output, goal, keep, obs)
+            command = self._chain_command(aff, push, b, sub_b, near, n3, held, (i3, sl3),
+                                          goal, keep, obs)
         if command is None or self._idle_repeat(command, obs):
             return None
         self.stack.append(Pursuit("convoy through the chain", goal, b))
@@ -477,43 +476,100 @@ class Planner:
             self.stack.pop()
         return 1
 
-    def _chain_command(self, aff: Affordance, push: Affordance, sub_b: Binding,
-                       c: np.ndarray, c3: np.ndarray, near: np.ndarray, n3: np.ndarray,
-                       held: tuple[int, slice], relation: tuple[int, slice],
-                       output: np.ndarray, goal: np.ndarray, keep: list[Keepout],
+    def _chain_command(self, aff: Affordance, push: Affordance, b: Binding, sub_b: Binding,
+                       near: np.ndarray, n3: np.ndarray, held: tuple[int, slice],
+                       relation: tuple[int, slice], goal: np.ndarray, keep: list[Keepout],
                        obs: np.ndarray) -> np.ndarray | None:
-        """`_convoy_plan`'s command with the robot against the object (None: none fits)."""
-        pred = self.navigator.predict(obs, sub_b.target, sub_b.tool)
-        if pred is None:
+        """`_convoy_plan`'s command with the robot against the object (None: none fits): the
+        first of the `convoy_depth` commands in a row whose imagined end costs least (`_chain`),
+        each command taken from where the one before is predicted to leave the robot, the
+        object and the output. A first command after which no command fits is valued at its
+        own end."""
+        lengths = (float(np.linalg.norm(near[held[1]])), float(np.linalg.norm(n3[relation[1]])))
+        first = self._chain(aff, push, b, sub_b, obs[None], lengths, held, relation, goal)
+        if first is None:
             return None
-        robot = self.reader.entity_position(obs, 0)
-        shift = pred.end - robot
-        n = shift.shape[0]
-        moved = push.model.predict(shift, np.repeat(c3[None], n, 0))
-        out = aff.model.predict(moved, np.repeat(c[None], n, 0))
-        after = output + out
-        rem = np.linalg.norm(goal - after, axis=1)
-        way = (goal - after) / np.maximum(rem, 1e-12)[:, None]
-        (i6, sl6), (i3, sl3) = held, relation
-        gap6 = np.linalg.norm(c[sl6] + out - moved - np.linalg.norm(near[sl6]) * way,
-                              axis=1) / self._spreads(aff)[i6]
-        gap3 = np.linalg.norm(c3[sl3] + moved - shift - np.linalg.norm(n3[sl3]) * way,
-                              axis=1) / self._spreads(push)[i3]
-        step = self.step_size(aff)
-        cost = rem / step + self.pc.convoy_drift_cost * (
-            (gap6 / self.pc.realign) ** DRIFT_POWER + (gap3 / self.pc.realign) ** DRIFT_POWER)
-        heading = self.value(ROBOT_HEADING, obs, sub_b)
-        turn = np.arccos(np.clip(pred.heading @ heading, -1.0, 1.0))
-        toward = self.reader.entity_position(obs, sub_b.target) - robot
-        toward /= max(float(np.linalg.norm(toward)), 1e-12)
-        ok = (self.navigator.allowed(obs, pred, keep)
-              & (rem < np.linalg.norm(goal - output) - MIN_PROGRESS * step)
-              & (shift @ toward >= MIN_PROGRESS * step)
-              & (turn <= np.deg2rad(self.pc.convoy_turn))
+        after, cost, ok = first
+        pred = self.navigator.predict(obs, sub_b.target, sub_b.tool)
+        assert pred is not None  # `_chain` predicted from the same observation
+        ok = (ok[0] & self.navigator.allowed(obs, pred, keep)
               & ~self._idle_repeats(pred.commands, obs))
         if not ok.any():
             return None
-        return pred.commands[int(np.argmin(np.where(ok, cost, np.inf)))].copy()
+        value, after = cost[0], after[0]
+        for _ in range(1, self.pc.convoy_depth):
+            live = np.flatnonzero(ok)
+            then = self._chain(aff, push, b, sub_b, after[live], lengths, held, relation, goal)
+            if then is None:
+                break
+            after_then, cost_then, ok_then = then
+            best = np.where(ok_then, cost_then, np.inf).min(axis=1)
+            value = value.copy()
+            value[live] = np.minimum(value[live], best)
+            # Deeper, each first command is followed by its best next command's imagined end.
+            pick = np.argmin(np.where(ok_then, cost_then, np.inf), axis=1)
+            after = after.copy()
+            after[live] = after_then[np.arange(live.size), pick]
+        return pred.commands[int(np.argmin(np.where(ok, value, np.inf)))].copy()
+
+    def _chain(self, aff: Affordance, push: Affordance, b: Binding, sub_b: Binding,
+               arr: np.ndarray, lengths: tuple[float, float], held: tuple[int, slice],
+               relation: tuple[int, slice], goal: np.ndarray
+               ) -> tuple[np.ndarray, np.ndarray, np.ndarray] | None:
+        """One convoy action imagined from each observation of `arr` (B, D), for each of the
+        navigator's commands, through the chain's forward models: the robot's move, the
+        object's (its push, from their relation) and the output's (`aff`, from the object's
+        relation to it). Returns the imagined observations (B, N, D); each one's cost, the
+        output's distance to `goal` in steps plus, for each relation, `convoy_drift_cost` ×
+        (its gap to the relation of `lengths` along the output's new way / `realign`)^
+        `DRIFT_POWER`; and the mask of commands that fit: a turn of at most `convoy_turn`,
+        a drive into the object and the output brought `MIN_PROGRESS` of a step nearer.
+        None: no motion model."""
+        motions = self.navigator.motions(arr, sub_b.target, sub_b.tool)
+        if motions is None:
+            return None
+        shift, heading = motions
+        m, n = shift.shape[:2]
+        flat = shift.reshape(-1, 2)
+        moved = push.model.predict(flat, self._contexts(push, arr, sub_b, n))
+        out = aff.model.predict(moved, self._contexts(aff, arr, b, n))
+        tool, target = self._entity(aff.input, b), self._entity(aff.output, b)
+        lay = self.reader.layout
+        robot = np.repeat(np.stack([self.reader.entity_position(o, 0) for o in arr]), n, 0)
+        nxt = np.repeat(arr, n, 0)
+        for entity, move in ((0, flat), (tool, moved), (target, out)):
+            nxt[:, lay.space(lay.entities[entity], Property.POSITION).slice] += move
+        nxt[:, lay.space(ROBOT, Property.HEADING).slice] = heading.reshape(-1, 2)
+        positions = nxt[:, lay.object_columns(Property.POSITION)]
+        nxt[:, lay.object_columns(Property.RELATIVE)] = (
+            positions - nxt[:, None, lay.space(ROBOT, Property.POSITION).slice])
+        ends = nxt[:, lay.space(lay.entities[target], Property.POSITION).slice]
+        rem = np.linalg.norm(goal - ends, axis=1)
+        way = (goal - ends) / np.maximum(rem, 1e-12)[:, None]
+        step = self.step_size(aff)
+        cost = rem / step
+        terms = ((held, aff, b, lengths[0]), (relation, push, sub_b, lengths[1]))
+        for (i, sl), who, bind, length in terms:
+            rel = self._contexts(who, nxt, bind, 1)[:, sl]
+            gap = np.linalg.norm(rel - length * way, axis=1) / self._spreads(who)[i]
+            cost = cost + self.pc.convoy_drift_cost * (gap / self.pc.realign) ** DRIFT_POWER
+        before = np.repeat(np.stack([self.reader.entity_position(o, target) for o in arr]), n, 0)
+        toward = np.repeat(np.stack([self.reader.entity_position(o, tool) for o in arr]),
+                           n, 0) - robot
+        toward /= np.maximum(np.linalg.norm(toward, axis=1), 1e-12)[:, None]
+        was = np.repeat(np.stack([self.value(ROBOT_HEADING, o, sub_b) for o in arr]), n, 0)
+        turn = np.arccos(np.clip(np.sum(heading.reshape(-1, 2) * was, axis=1), -1.0, 1.0))
+        ok = ((rem < np.linalg.norm(goal - before, axis=1) - MIN_PROGRESS * step)
+              & (np.sum(flat * toward, axis=1) >= MIN_PROGRESS * step)
+              & (turn <= np.deg2rad(self.pc.convoy_turn)))
+        return nxt.reshape(m, n, -1), cost.reshape(m, n), ok.reshape(m, n)
+
+    def _contexts(self, aff: Affordance, arr: np.ndarray, b: Binding, n: int
+                  ) -> np.ndarray | None:
+        """`aff`'s context in each observation of `arr` (B, D), each repeated `n` times."""
+        if not aff.contexts:
+            return None
+        return np.repeat(np.stack([self.context(aff, o, b) for o in arr]), n, 0)
 
     def _in_convoy(self, aff: Affordance, b: Binding) -> bool:
         """Whether `aff` is the robot pushing an object for a `convoy` move of it: the entity
@@ -595,6 +651,18 @@ class Planner:
             way = goal - offset_now - position
         length = float(np.linalg.norm(way))
         return way if length <= step else way * (step / max(length, 1e-12))
+
+    def _convoy_hold(self, aff: Affordance, b: Binding, delta: np.ndarray, c: np.ndarray,
+                     near: np.ndarray, relations: np.ndarray, spreads: list[float],
+                     goal: np.ndarray | None) -> tuple[int, slice] | None:
+        """With `convoy`, `_held_relation` with the relation's gap from `c` to `near`, at its
+        own length where it trails (`convoy_trailing`); None without `convoy`."""
+        if not self.pc.convoy:
+            return None
+        if self.pc.convoy_trailing:
+            near = self._trailing(aff, c, near, relations)
+        return self._held_relation(aff, b, delta, self._gap(aff, spreads, c, near, relations),
+                                   goal)
 
     def _held_relation(self, aff: Affordance, b: Binding, delta: np.ndarray, off: float,
                        goal: np.ndarray | None) -> tuple[int, slice] | None:
@@ -952,6 +1020,19 @@ class Planner:
             now = float(np.linalg.norm(c[sl]))
             if relations[i] and now < float(np.linalg.norm(needed[sl])):
                 out[sl] = _at_length(needed[sl], now)
+        return out
+
+    @staticmethod
+    def _trailing(aff: Affordance, c: np.ndarray, near: np.ndarray,
+                  relations: np.ndarray) -> np.ndarray:
+        """`near` with each relation of `relations` that `c` holds further (the bodies apart:
+        a tool trailing behind the target) brought to `c`'s length on its own bearing
+        (`convoy_trailing`): what is then left of the gap is the bearing's."""
+        out = near.copy()
+        for i, sl in _slices(aff):
+            now = float(np.linalg.norm(c[sl]))
+            if relations[i] and now > float(np.linalg.norm(near[sl])):
+                out[sl] = _at_length(near[sl], now)
         return out
 
     def _at_contact(self, aff: Affordance, needed: np.ndarray,

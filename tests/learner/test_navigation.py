@@ -218,6 +218,34 @@ def test_a_prediction_is_kept_for_the_same_observation_until_the_models_change()
     assert _same(again, Navigator(h, robot.reader, PlannerConfig()).predict(other))
 
 
+@pytest.mark.parametrize("exact", [False, True])
+def test_motions_from_many_observations_are_each_ones_prediction(exact):
+    """`motions` (the convoy's imagined poses, several at once) predicts from each observation
+    what `predict` does from it alone — with the heading each holds as the motion models'
+    context — and `allowed_many` refuses from each what `allowed` does."""
+    h = _learned_movers(np.random.default_rng(5), 300)
+    robot = Kinematic(0.2, -0.1, 0.7)
+    robot.place(1, (0.5, 0.1))
+    nav = Navigator(h, robot.reader, PlannerConfig(), robot.motion if exact else None)
+    poses = [((0.2, -0.1), 0.7), ((0.4, 0.3), -2.0), ((0.0, 0.0), 3.0)]
+    obs = []
+    for position, theta in poses:
+        robot.set(np.array(position), np.array([np.cos(theta), np.sin(theta)]))
+        obs.append(robot.obs.copy())
+    shift, after = nav.motions(np.stack(obs))
+    keep = [Keepout(1, 0.45, 0.40)]
+    preds = [nav.predict(o) for o in obs]
+    for o, pred, s, a in zip(obs, preds, shift, after, strict=True):
+        np.testing.assert_allclose(robot.reader.entity_position(o, 0) + s, pred.end, atol=1e-12)
+        np.testing.assert_allclose(a, pred.heading, atol=1e-12)
+    assert not np.allclose(shift[0], shift[1])
+    allowed = nav.allowed_many(np.stack(obs), np.stack([p.half for p in preds]),
+                               np.stack([p.end for p in preds]), keep)
+    for o, pred, ok in zip(obs, preds, allowed, strict=True):
+        np.testing.assert_array_equal(ok, nav.allowed(o, pred, keep))
+    assert not allowed.all() and allowed.any()
+
+
 @pytest.mark.parametrize("bearing", [10.0, -12.0])
 def test_a_place_within_its_tolerance_is_still_driven_to_as_near_as_the_grid_allows(bearing):
     """`planner.precise_places`: a push's sub-goal a few degrees off the heading lies within

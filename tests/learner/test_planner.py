@@ -1364,6 +1364,49 @@ def test_a_convoy_moves_the_tool_along_the_targets_way_and_tells_its_pusher():
     assert np.degrees(np.arccos(move @ way / np.linalg.norm(move))) > 14.0
 
 
+def test_a_relation_trailing_on_its_bearing_is_taken_at_its_own_length():
+    """`_trailing`: a driven relation longer than its place (the tool behind the target, not
+    yet touching it) is brought to its own length on the place's bearing; a shorter one, and
+    one the planner does not drive, stay the place's."""
+    aff = SimpleNamespace(model=SimpleNamespace(context_dims=[2, 2, 1]))
+    near = np.array([0.05, 0.0, 0.05, 0.0, 0.3])
+    c = np.array([0.0, 0.2, 0.0, 0.02, 0.9])
+    out = Planner._trailing(aff, c, near, np.array([True, True, False]))
+    np.testing.assert_allclose(out[:2], [0.2, 0.0])   # trailing: its length, the place's bearing
+    np.testing.assert_allclose(out[2:4], near[2:4])   # nearer than the place: the place
+    np.testing.assert_allclose(out[4:], near[4:])     # not driven
+    np.testing.assert_allclose(near, [0.05, 0.0, 0.05, 0.0, 0.3])  # not changed in place
+
+
+def test_a_tool_trailing_behind_the_target_on_its_bearing_holds_the_convoy():
+    """`convoy_trailing`: the tool 15 cm short of its place at contact, on the place's bearing,
+    holds the relation for a convoy (its first push closes the distance); off, the 15 cm count
+    as drift past `realign` and a trip to the place would follow. Off its bearing by 30°, the
+    tool holds nothing either way."""
+    from dataclasses import replace
+
+    planner, obs, layout = _avoid_scene()
+    planner.step_size = lambda a: 0.1
+    aff = _tool_level(np.array([0.08, 0.0]), lambda x, c: 0.6 * x)
+    b = Binding(target=1, tool=2, avoid=1)
+    spreads, relations, goal = [0.1], np.array([True]), np.array([1.2, 0.0])
+    near = np.array([0.05, 0.0])
+    behind = np.array([0.2, 0.0])
+    turned = 0.2 * np.array([np.cos(np.radians(30)), np.sin(np.radians(30))])
+
+    def held(c: np.ndarray) -> tuple[int, slice] | None:
+        return planner._convoy_hold(aff, b, np.array([0.1, 0.0]), c, near, relations,
+                                    spreads, goal)
+
+    assert held(behind) == (0, slice(0, 2))
+    assert held(turned) is None
+    planner.pc = replace(planner.pc, convoy_trailing=False)
+    assert held(behind) is None
+    assert held(near + [0.01, 0.0]) == (0, slice(0, 2))
+    planner.pc = replace(planner.pc, convoy=False)
+    assert held(near) is None
+
+
 def _robot_pushing_the_tool(planner: Planner, answer: np.ndarray
                             ) -> tuple[SimpleNamespace, Binding]:
     """The robot's push level (`robot.position → target.position | target-robot`) bound to
@@ -1466,34 +1509,48 @@ def test_a_subgoal_shorter_than_a_step_is_held_to_a_share_of_its_own_length():
 
 def _chain(planner: Planner, commands: np.ndarray, shifts: np.ndarray, turns_deg: np.ndarray,
            relation_deg: float):
-    """`_chain_command`'s world on hand-made models whose answer is known: the robot (heading
-    +x) moves by `shifts` for `commands` (its heading turned by `turns_deg`), the tool it pushes
-    moves with it, and the target moves along the tool–target line of centres — `relation_deg`
-    off its way (+x, to the goal 1 m ahead) — by the tool's move projected on that line (a disc
-    pushes a disc along their centres). Relations 0.3 long, their spread 0.3, a step 0.1."""
+    """`_chain_command`'s world on hand-made models whose answer is known: the robot (at the
+    origin, heading +x) moves by `shifts` for `commands` (its heading turned by `turns_deg`),
+    the tool (obj2, against it ahead) moves with it, and the target (obj1) moves along the
+    tool–target line of centres — `relation_deg` off its way (+x, to the goal 1 m ahead) — by
+    the tool's move projected on that line (a disc pushes a disc along their centres).
+    Relations read 0.3 long on their bearing in every observation, imagined or not; their
+    spread 0.3, a step 0.1. `planner` must be `_avoid_scene`'s."""
     from hadim_cli.learner.navigation import Prediction
 
+    obs, layout = planner._test_obs, planner.reader.layout
     n = np.array([np.cos(np.radians(relation_deg)), np.sin(np.radians(relation_deg))])
-    c6, c3 = 0.3 * n, np.array([0.3, 0.0])  # target–tool, tool–robot
+    where = {e: layout.space(name, Property.POSITION).slice
+             for e, name in ((0, "robot"), (1, "obj1"), (2, "obj2"))}
+    obs[where[2]] = [0.25, 0.0]
+    obs[where[1]] = obs[where[2]] + 0.22 * n
     turns = np.radians(turns_deg)
-    pred = Prediction(commands, 0.5 * shifts, shifts, np.stack([np.cos(turns), np.sin(turns)], 1),
-                      0.15, 1.0)
-    planner.navigator = SimpleNamespace(predict=lambda *args: pred,
-                                        allowed=lambda *args: np.ones(len(commands), bool))
+    headings = np.stack([np.cos(turns), np.sin(turns)], 1)
+    pred = Prediction(commands, 0.5 * shifts, shifts, headings, 0.15, 1.0)
+    planner.navigator = SimpleNamespace(
+        predict=lambda *args: pred, allowed=lambda *args: np.ones(len(commands), bool),
+        motions=lambda arr, *args: (np.repeat(shifts[None], len(arr), 0),
+                                    np.repeat(headings[None], len(arr), 0)))
     planner._spreads = lambda a: [0.3]
     planner.step_size = lambda a: 0.1
-    planner.value = lambda space, obs, b: np.array([1.0, 0.0])
-    planner.reader = SimpleNamespace(  # the robot at the origin, the tool against it ahead
-        entity_position=lambda obs, e: np.array([0.25, 0.0]) if e == 2 else np.zeros(2))
-    aff = SimpleNamespace(model=SimpleNamespace(
-        predict=lambda moved, c: (moved @ n)[:, None] * n[None]))
-    push = SimpleNamespace(model=SimpleNamespace(predict=lambda shift, c: shift.copy()))
+    aff = SimpleNamespace(contexts=(TARGET_TOOL,), input=RoleSpace(Role.TOOL, Property.POSITION),
+                          output=TARGET_POSITION, model=SimpleNamespace(
+        predict=lambda moved, c: np.sum(moved * c, 1, keepdims=True) * c / 0.09))
+    push = SimpleNamespace(contexts=(TARGET_ROBOT,),
+                           model=SimpleNamespace(predict=lambda shift, c: shift.copy()))
+
+    def relation(a, o, b):  # 0.3 long, on the bearing of the bodies' centres
+        first, then = ((1, 2) if a is aff else (2, 0))
+        v = o[where[first]] - o[where[then]]
+        return 0.3 * v / np.linalg.norm(v)
+
+    planner.context = relation
     goal, near = np.array([1.0, 0.0]), np.array([0.3, 0.0])
 
     def command() -> np.ndarray | None:
-        return planner._chain_command(aff, push, Binding(target=2, avoid=1), c6, c3, near,
-                                      near.copy(), (0, slice(0, 2)), (0, slice(0, 2)),
-                                      np.zeros(2), goal, [], np.zeros(3))
+        return planner._chain_command(aff, push, Binding(target=1, tool=2, avoid=1),
+                                      Binding(target=2, avoid=1), near, near.copy(),
+                                      (0, slice(0, 2)), (0, slice(0, 2)), goal, [], obs)
     command.aff = aff
     return command
 
@@ -1509,14 +1566,14 @@ def test_a_convoy_planned_through_the_chain_pushes_on_the_side_that_lines_the_to
     nor the last command again from the observation it left unchanged: the next best then."""
     from dataclasses import replace
 
-    planner = _planner()
+    planner, planner._test_obs, _ = _avoid_scene()
     planner.pc = replace(planner.pc, convoy_plan=True)
     angles = np.radians([-10.0, -40.0, -10.0])
     shifts = np.array([0.1, 0.1, 0.2])[:, None] * np.stack([np.cos(angles), np.sin(angles)], 1)
     commands = np.array([[1.0, 0.9], [1.0, 0.8], [1.0, 0.2]])
     command = _chain(planner, commands, shifts, np.array([0.0, 0.0, 20.0]), -20.0)
     np.testing.assert_array_equal(command(), commands[1])
-    planner._idle = (commands[1].copy(), np.zeros(3))  # it left this observation unchanged
+    planner._idle = (commands[1].copy(), planner._test_obs.copy())  # it left this unchanged
     np.testing.assert_array_equal(command(), commands[0])  # the next best, not a repeat
     planner._idle = None
     planner.pc = replace(planner.pc, convoy_drift_cost=0.0)
@@ -1530,6 +1587,51 @@ def test_a_convoy_planned_through_the_chain_pushes_on_the_side_that_lines_the_to
     shifts[1] = 0.0  # a turn on the spot: the models asked about a null move must not count
     command.aff.model.predict = lambda moved, c: np.tile([0.05, 0.0], (len(moved), 1))
     np.testing.assert_array_equal(command(), commands[0])
+
+
+def test_a_deeper_convoy_takes_the_first_command_whose_follow_up_ends_best():
+    """`convoy_depth`: three first commands end at costs 1.0, 1.2 and 2.0; the best command
+    after each ends at 0.9, 0.3 and — after the third, none fits — nothing. One action ahead
+    the first is taken; two ahead the second (0.3), the third valued at its own end (2.0),
+    not at a follow-up that does not fit. The first command must itself fit: refused by the
+    keep-outs, the second is not taken however good its follow-up."""
+    from dataclasses import replace
+
+    from hadim_cli.learner.navigation import Prediction
+
+    planner, obs, _ = _avoid_scene()
+    commands = np.array([[1.0, 1.0], [1.0, 0.8], [0.8, 1.0]])
+    pred = Prediction(commands, np.zeros((3, 2)), np.zeros((3, 2)), np.tile([1.0, 0.0], (3, 1)),
+                      0.15, 1.0)
+    allowed = np.ones(3, bool)
+    planner.navigator = SimpleNamespace(predict=lambda *args: pred,
+                                        allowed=lambda *args: allowed)
+    first = (np.array([1.0, 1.2, 2.0]), np.ones(3, bool))
+    follow = {0.0: ([0.9, 5.0, 5.0], [True, True, True]),
+              1.0: ([0.3, 5.0, 5.0], [True, True, True]),
+              2.0: ([0.1, 0.1, 0.1], [False, False, False])}
+
+    def chain(aff, push, b, sub_b, arr, *args):  # an imagined observation's [0]: which it is
+        if arr.shape[0] == 1 and arr[0, 0] == obs[0]:
+            ends = np.stack([np.full_like(obs, k) for k in range(3)])[None]
+            return ends, first[0][None], first[1][None]
+        costs = np.array([follow[float(a[0])][0] for a in arr])
+        fits = np.array([follow[float(a[0])][1] for a in arr])
+        return np.repeat(arr[:, None], 3, 1), costs, fits
+
+    obs[0] = -1.0
+    planner._chain = chain
+
+    def command(depth: int) -> np.ndarray | None:
+        planner.pc = replace(planner.pc, convoy_depth=depth)
+        near = np.array([0.3, 0.0])
+        return planner._chain_command(None, None, Binding(), Binding(), near, near,
+                                      (0, slice(0, 2)), (0, slice(0, 2)), np.zeros(2), [], obs)
+
+    np.testing.assert_array_equal(command(1), commands[0])
+    np.testing.assert_array_equal(command(2), commands[1])
+    allowed[1] = False
+    np.testing.assert_array_equal(command(2), commands[0])
 
 
 def test_a_convoy_planned_through_the_chain_first_closes_on_the_object_behind_it():
