@@ -1511,19 +1511,17 @@ def _chain(planner: Planner, commands: np.ndarray, shifts: np.ndarray, turns_deg
            relation_deg: float):
     """`_chain_command`'s world on hand-made models whose answer is known: the robot (at the
     origin, heading +x) moves by `shifts` for `commands` (its heading turned by `turns_deg`),
-    the tool (obj2, against it ahead) moves with it, and the target (obj1) moves along the
-    tool–target line of centres — `relation_deg` off its way (+x, to the goal 1 m ahead) — by
-    the tool's move projected on that line (a disc pushes a disc along their centres).
-    Relations read 0.3 long on their bearing in every observation, imagined or not; their
-    spread 0.3, a step 0.1. `planner` must be `_avoid_scene`'s."""
+    the tool (obj2, 0.3 m ahead of it) moves with it, and the target (obj1, 0.3 m from the
+    tool, `relation_deg` off its way: +x, to the goal 1 m ahead) moves along the tool–target
+    line of centres by the tool's move projected on that line (a disc pushes a disc along
+    their centres). Relations are read centre to centre from every observation, imagined or
+    not; their spread 0.3, a step 0.1. `planner` must be `_avoid_scene`'s."""
     from hadim_cli.learner.navigation import Prediction
 
     obs, layout = planner._test_obs, planner.reader.layout
     n = np.array([np.cos(np.radians(relation_deg)), np.sin(np.radians(relation_deg))])
-    where = {e: layout.space(name, Property.POSITION).slice
-             for e, name in ((0, "robot"), (1, "obj1"), (2, "obj2"))}
-    obs[where[2]] = [0.25, 0.0]
-    obs[where[1]] = obs[where[2]] + 0.22 * n
+    obs[layout.space("obj2", Property.POSITION).slice] = [0.3, 0.0]
+    obs[layout.space("obj1", Property.POSITION).slice] = [0.3, 0.0] + 0.3 * n
     turns = np.radians(turns_deg)
     headings = np.stack([np.cos(turns), np.sin(turns)], 1)
     pred = Prediction(commands, 0.5 * shifts, shifts, headings, 0.15, 1.0)
@@ -1535,16 +1533,10 @@ def _chain(planner: Planner, commands: np.ndarray, shifts: np.ndarray, turns_deg
     planner.step_size = lambda a: 0.1
     aff = SimpleNamespace(contexts=(TARGET_TOOL,), input=RoleSpace(Role.TOOL, Property.POSITION),
                           output=TARGET_POSITION, model=SimpleNamespace(
-        predict=lambda moved, c: np.sum(moved * c, 1, keepdims=True) * c / 0.09))
+                              predict=lambda moved, c: np.sum(moved * c, 1, keepdims=True) * c
+                              / np.sum(c * c, 1, keepdims=True)))
     push = SimpleNamespace(contexts=(TARGET_ROBOT,),
                            model=SimpleNamespace(predict=lambda shift, c: shift.copy()))
-
-    def relation(a, o, b):  # 0.3 long, on the bearing of the bodies' centres
-        first, then = ((1, 2) if a is aff else (2, 0))
-        v = o[where[first]] - o[where[then]]
-        return 0.3 * v / np.linalg.norm(v)
-
-    planner.context = relation
     goal, near = np.array([1.0, 0.0]), np.array([0.3, 0.0])
 
     def command() -> np.ndarray | None:
