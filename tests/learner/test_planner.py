@@ -1543,7 +1543,7 @@ def _chain(planner: Planner, commands: np.ndarray, shifts: np.ndarray, turns_deg
         return planner._chain_command(aff, push, Binding(target=1, tool=2, avoid=1),
                                       Binding(target=2, avoid=1), near, near.copy(),
                                       (0, slice(0, 2)), (0, slice(0, 2)), goal, [], obs)
-    command.aff = aff
+    command.aff, command.push, command.goal = aff, push, goal
     return command
 
 
@@ -1579,6 +1579,37 @@ def test_a_convoy_planned_through_the_chain_pushes_on_the_side_that_lines_the_to
     shifts[1] = 0.0  # a turn on the spot: the models asked about a null move must not count
     command.aff.model.predict = lambda moved, c: np.tile([0.05, 0.0], (len(moved), 1))
     np.testing.assert_array_equal(command(), commands[0])
+
+
+def test_a_convoy_command_costs_the_targets_way_left_and_each_relations_drift():
+    """`_chain`, by hand: after each command the robot has moved by its shift, the tool with
+    it, the target by the tool's move along their line of centres; the command's cost is the
+    target's distance to its goal in steps plus `convoy_drift_cost` × (gap / `realign`)⁴ for
+    the target–tool and the tool–robot relations, each read from that command's imagined
+    observation against a relation of its length (0.3) along the target's new way."""
+    from dataclasses import replace
+
+    planner, planner._test_obs, _ = _avoid_scene()
+    planner.pc = replace(planner.pc, convoy_plan=True)
+    angles = np.radians([-10.0, -40.0, 25.0])
+    shifts = np.array([0.1, 0.1, 0.05])[:, None] * np.stack([np.cos(angles), np.sin(angles)], 1)
+    commands = np.array([[1.0, 0.9], [1.0, 0.8], [0.9, 1.0]])
+    command = _chain(planner, commands, shifts, np.zeros(3), -20.0)
+    n = np.array([np.cos(np.radians(-20.0)), np.sin(np.radians(-20.0))])
+    tool = np.array([0.3, 0.0]) + shifts
+    target = np.array([0.3, 0.0]) + 0.3 * n + (shifts @ n)[:, None] * n
+    rem = np.linalg.norm(command.goal - target, axis=1)
+    way = (command.goal - target) / rem[:, None]
+    pc = planner.pc
+    want = rem / 0.1
+    for rel in (target - tool, tool - shifts):
+        gap = np.linalg.norm(rel - 0.3 * way, axis=1) / 0.3
+        want = want + pc.convoy_drift_cost * (gap / pc.realign) ** 4
+    imagined, cost, fits = planner._chain(
+        command.aff, command.push, Binding(target=1, tool=2, avoid=1), Binding(target=2, avoid=1),
+        planner._test_obs[None], (0.3, 0.3), (0, slice(0, 2)), (0, slice(0, 2)), command.goal)
+    np.testing.assert_allclose(cost[0], want, rtol=1e-9)
+    assert fits[0].all() and imagined.shape == (1, 3, planner._test_obs.size)
 
 
 def test_a_deeper_convoy_takes_the_first_command_whose_follow_up_ends_best():
