@@ -623,6 +623,14 @@ class PlannerConfig:
     tool staged a few centimetres short, or set out behind the target from the start, cost a
     trip to the place at contact before the convoy (runs stored before keep it off)."""
 
+    convoy_goes_on: bool = True
+    """With `convoy_plan`: a convoy whose tool–target relation drifted past `realign` goes on
+    through the chain, instead of a correction, while pushing on along the tool–target line
+    would bring the target within `small_correction` of a step of its goal
+    (`Planner._goes_on`): near a goal a correction gains little (traced: three corrections of
+    13–24 actions for 8 cm, each leaving the line 15–25° off again). Off: every drift past
+    `realign` re-stages the tool (runs stored before keep it off)."""
+
     convoy_depth: int = 1
     """With `convoy_plan`: how many actions in a row the convoy imagines through the chain's
     forward models before it chooses the first."""
@@ -850,7 +858,7 @@ LEGACY_DEFAULTS: dict[str, dict[str, Any]] = {
                 "mirrored_relations": False, "convoy": False,
                 "convoy_facing": False, "short_subgoals": False, "convoy_plan": False,
                 "stall_trips": False, "room_places": False, "solid_bodies": False,
-                "convoy_trailing": False},
+                "convoy_trailing": False, "convoy_goes_on": False},
 }
 """Keys added after runs were first stored, with the value that reproduces what a run stored
 without them did (its defaults then): a stored run restores the learner it trained (the

@@ -124,12 +124,13 @@ def test_a_run_stored_before_trips_were_searched_keeps_its_waypoints():
     a place alone; a sub-goal's slack a share of a step whatever its length), `convoy_plan`
     (the convoy's straight step), `stall_trips` and `room_places` (every small correction of
     a sub-goal spared; a place beyond a wall driven toward), `solid_bodies` (a place fitted
-    inside another body stands) and `convoy_trailing` (a tool short of its place drifts by
-    that distance); one holding it keeps it."""
+    inside another body stands), `convoy_trailing` (a tool short of its place drifts by
+    that distance) and `convoy_goes_on` (every drift past `realign` re-stages); one holding it
+    keeps it."""
     for key in ("route_search", "spare_stagings", "pusher_contacts", "skip_idle_repeats",
                 "drifting_places", "face_places", "mirrored_relations", "convoy",
                 "convoy_facing", "short_subgoals", "convoy_plan", "stall_trips",
-                "room_places", "solid_bodies", "convoy_trailing"):
+                "room_places", "solid_bodies", "convoy_trailing", "convoy_goes_on"):
         values = Config().to_dict()
         assert values["planner"][key] is True
         assert getattr(stored_config(values).planner, key) is True

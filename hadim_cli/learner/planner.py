@@ -197,6 +197,9 @@ class Planner:
         self._idle: tuple[np.ndarray, np.ndarray] | None = None
         """(the action, the observation after it) when the last primitive action moved
         nothing (`skip_idle_repeats`)."""
+        self._convoy_acted = False
+        """Whether the last primitive action was a convoy's, chosen through the chain
+        (`convoy_goes_on`)."""
         self.pusher: Pusher | None = None
         """An exact stand-in for the robot pushing an object where a level above asks
         (`evaluation.exact`, evaluation only); None: the learned affordances push."""
@@ -350,14 +353,10 @@ class Planner:
         needed = self.needed_context(aff, delta, c, relations | self._poses(aff))
         near = self._as_near(aff, c, needed, relations)
         off = self._gap(aff, spreads, c, near, relations)
-        held = self._convoy_hold(aff, b, delta, c, near, relations, spreads, goal)
-        if held is not None:
-            if self.pc.convoy_plan and goal is not None:
-                done = self._convoy_plan(aff, b, delta, c, near, held, actuator, goal)
-                if done is not None:
-                    return done
-            return self._convoy_step(aff, b, self.straight_move(aff, delta, c, x), actuator,
-                                     budget, depth)
+        used = self._convoy(aff, b, delta, c, x, near, relations, spreads, actuator, budget,
+                            depth, goal)
+        if used is not None:
+            return used
         way = self._way_to_final_place(aff, b, delta, near if self.pc.near_pursuit
                                        else needed, off, goal, obs)
         if way is not None:
@@ -389,6 +388,49 @@ class Planner:
             if used > 0:
                 return used
         return None
+
+    def _convoy(self, aff: Affordance, b: Binding, delta: np.ndarray, c: np.ndarray,
+                x: np.ndarray, near: np.ndarray, relations: np.ndarray, spreads: list[float],
+                actuator: Actuator, budget: int, depth: int, goal: np.ndarray | None
+                ) -> int | None:
+        """`_from_needed`'s convoy, when one applies: where the relation holds
+        (`_convoy_hold`), the chain's command (`convoy_plan`) or else the straight step; past
+        `realign`, right after a convoy action, the chain's command while pushing on along
+        the line is predicted to leave the output within a small correction of its goal
+        (`convoy_goes_on`). Returns actions used, None when no convoy applies."""
+        held = self._convoy_hold(aff, b, delta, c, near, relations, spreads, goal)
+        if held is None:
+            if not self._goes_on(aff, b, goal, actuator.obs):
+                return None
+            held = _relation_slice(aff)
+            assert held is not None and goal is not None  # `_goes_on` checked them
+            return self._convoy_plan(aff, b, delta, c, near, held, actuator, goal)
+        if self.pc.convoy_plan and goal is not None:
+            done = self._convoy_plan(aff, b, delta, c, near, held, actuator, goal)
+            if done is not None:
+                return done
+        return self._convoy_step(aff, b, self.straight_move(aff, delta, c, x), actuator,
+                                 budget, depth)
+
+    def _goes_on(self, aff: Affordance, b: Binding, goal: np.ndarray | None,
+                 obs: np.ndarray) -> bool:
+        """`convoy_goes_on`: whether a convoy whose relation drifted past `realign` pushes on
+        through the chain — its last action was the convoy's, and the output pushed on along
+        the line from its input (the target along the tool–target line) would pass within
+        `small_correction` of a step of `goal`: a correction is no trip worth taking for
+        what it could still gain (traced near goals: three corrections of 13–24 actions for
+        8 cm, each leaving the line 15–25° off again)."""
+        if not (self.pc.convoy_goes_on and self.pc.convoy_plan and self._convoy_acted
+                and goal is not None and self._entity(aff.input, b) > 0
+                and _relation_slice(aff) is not None):
+            return False
+        output = self.reader.entity_position(obs, self._entity(aff.output, b))
+        line = output - self.reader.entity_position(obs, self._entity(aff.input, b))
+        way = goal - output
+        rem = float(np.linalg.norm(way))
+        cos = float(line @ way) / max(rem * float(np.linalg.norm(line)), 1e-12)
+        miss = rem * float(np.sqrt(max(1.0 - cos * cos, 0.0))) if cos > 0.0 else rem
+        return miss <= self.pc.small_correction * self.step_size(aff)
 
     def straight_move(self, aff: Affordance, delta: np.ndarray, c: np.ndarray,
                       x: np.ndarray) -> np.ndarray:
@@ -474,6 +516,7 @@ class Planner:
             self._act(actuator, command)
         finally:
             self.stack.pop()
+        self._convoy_acted = True
         return 1
 
     def _chain_command(self, aff: Affordance, push: Affordance, b: Binding, sub_b: Binding,
@@ -1190,6 +1233,7 @@ class Planner:
         """One primitive action, remembering whether it served a placement (`trips`) and
         whether it moved nothing (`_idle_repeat`)."""
         before = np.array(actuator.obs, dtype=float) if self.pc.skip_idle_repeats else None
+        self._convoy_acted = False
         actuator.act(action)
         self._placed_for = frozenset(p.places for p in self.stack if p.places >= 0)
         if before is None:

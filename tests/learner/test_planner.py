@@ -1407,6 +1407,74 @@ def test_a_tool_trailing_behind_the_target_on_its_bearing_holds_the_convoy():
     assert held(near) is None
 
 
+def _goes_on_scene(rem: float, off_deg: float):
+    """The tool level bound to push the target (obj1, at (0.6, 0)) with the tool (obj2) 0.22 m
+    behind it on a line `off_deg` off the target's way to a goal `rem` ahead (+x); a step of
+    0.1, so `small_correction` (0.5) of a step is 5 cm."""
+    planner, obs, layout = _avoid_scene()
+    planner.step_size = lambda a: 0.1
+    a = np.radians(off_deg)
+    obs[layout.space("obj2", Property.POSITION).slice] = [0.6, 0.0] - 0.22 * np.array(
+        [np.cos(a), np.sin(a)])
+    aff = _tool_level(np.array([0.08, 0.0]), lambda x, c: x)
+    return planner, obs, aff, Binding(target=1, tool=2, avoid=1), np.array([0.6 + rem, 0.0])
+
+
+def test_a_convoy_past_realign_goes_on_near_its_goal_right_after_a_convoy_action():
+    """`convoy_goes_on`: the tool–target line 20° off the way, the goal 10 cm ahead — pushed on
+    along the line the target passes 3.4 cm from it, within a small correction — and the last
+    action the convoy's: the convoy goes on. Not 30 cm ahead (10 cm off), not after another
+    action (a trip, a staging: any action resets it), not with the option off, and not with
+    the line pointing away from the goal while further than a small correction."""
+    from dataclasses import replace
+
+    planner, obs, aff, b, goal = _goes_on_scene(0.10, 20.0)
+    planner._convoy_acted = True
+    assert planner._goes_on(aff, b, goal, obs)
+    far = _goes_on_scene(0.30, 20.0)
+    far[0]._convoy_acted = True
+    assert not far[0]._goes_on(far[2], far[3], far[4], far[1])
+    away = _goes_on_scene(0.10, 170.0)  # the line 1.7 cm from the goal, but pointing away
+    away[0]._convoy_acted = True
+    assert not away[0]._goes_on(away[2], away[3], away[4], away[1])
+    planner.pc = replace(planner.pc, convoy_goes_on=False)
+    assert not planner._goes_on(aff, b, goal, obs)
+    planner.pc = replace(planner.pc, convoy_goes_on=True)
+    planner._act(SimpleNamespace(obs=obs, act=lambda action: None), np.array([0.5, 0.5]))
+    assert not planner._goes_on(aff, b, goal, obs)
+
+
+def test_a_convoy_that_goes_on_takes_only_the_chains_command():
+    """`_convoy` past `realign` (no held relation) where the convoy goes on: the chain's command
+    (`_convoy_plan`), and when the chain has none, no convoy at all (None: the correction
+    follows), never the straight step; where the relation holds, the chain's command or else
+    the straight step; where neither, None."""
+    planner, obs, aff, b, goal = _goes_on_scene(0.10, 20.0)
+    answer, straight = [], []
+    planner._convoy_plan = lambda *args: answer[0] if answer else None
+    planner._convoy_step = lambda *args: straight.append(1) or 3
+    planner.straight_move = lambda aff, delta, c, x: x
+    hold = [None]
+    planner._convoy_hold = lambda *args: hold[0]
+    planner._goes_on = lambda *args: True
+
+    def convoy() -> int | None:
+        return planner._convoy(aff, b, np.array([0.05, 0.0]), np.zeros(2), np.zeros(2),
+                               np.zeros(2), np.array([True]), [0.1], SimpleNamespace(obs=obs),
+                               80, 0, goal)
+
+    answer.append(1)
+    assert convoy() == 1
+    answer.clear()
+    assert convoy() is None and not straight
+    planner._goes_on = lambda *args: False
+    assert convoy() is None and not straight
+    hold[0] = (0, slice(0, 2))
+    assert convoy() == 3 and straight == [1]
+    answer.append(1)
+    assert convoy() == 1
+
+
 def _robot_pushing_the_tool(planner: Planner, answer: np.ndarray
                             ) -> tuple[SimpleNamespace, Binding]:
     """The robot's push level (`robot.position → target.position | target-robot`) bound to
