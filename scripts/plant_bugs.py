@@ -694,8 +694,8 @@ BUGS = (
         "ok = (ok[0] & self.navigator.allowed(obs, pred, keep)", "ok = (ok[0]",
         f"{PL}::test_a_deeper_convoy_takes_the_first_command_whose_follow_up_ends_best"),
     Bug("motions-one-context", "hadim_cli/learner/navigation.py",
-        "rows = Rows(np.arange(m), np.full(m, target), np.full(m, tool))",
-        "rows = Rows(np.zeros(m, dtype=np.int64), np.full(m, target), np.full(m, tool))",
+        "np.repeat(self.reader.read_each(aff.contexts, obs, target, tool), n, 0)",
+        "np.repeat(self.reader.read_each(aff.contexts, obs[:1], target, tool), n * len(obs), 0)",
         "tests/learner/test_navigation.py::test_motions_from_many_observations_are_each_ones_"
         "prediction"),
     Bug("motions-exact-one-pose", "hadim_cli/learner/navigation.py",
@@ -708,9 +708,9 @@ BUGS = (
         "robot = np.stack([self.reader.entity_position(obs[0], 0) for o in obs])[:, None]",
         "tests/learner/test_navigation.py::test_motions_from_many_observations_are_each_ones_"
         "prediction"),
-    Bug("chain-contexts-one-observation", "hadim_cli/learner/planner.py",
-        "rows = Rows(np.arange(m), np.full(m, b.target), np.full(m, b.tool))",
-        "rows = Rows(np.zeros(m, dtype=np.int64), np.full(m, b.target), np.full(m, b.tool))",
+    Bug("chain-contexts-one-observation", "hadim_cli/learner/spaces.py",
+        "return self.read_many(spaces, obs, Rows(np.arange(m), np.full(m, target),",
+        "return self.read_many(spaces, obs, Rows(np.zeros(m, dtype=np.int64), np.full(m, target),",
         f"{PL}::test_a_convoy_command_costs_the_targets_way_left_and_each_relations_drift"),
     Bug("chain-pusher-drift-ignored", "hadim_cli/learner/planner.py",
         "terms = ((held, aff, b, lengths[0]), (relation, push, sub_b, lengths[1]))",

@@ -31,7 +31,7 @@ from hadim_cli.learner.affordance import Affordance
 from hadim_cli.learner.hierarchy import Hierarchy
 from hadim_cli.learner.routes import Motion as BodyMotion
 from hadim_cli.learner.routes import Obstacles, cross, search, unit
-from hadim_cli.learner.spaces import ACTION, Property, Role, RoleSpace, Rows, SpaceReader
+from hadim_cli.learner.spaces import ACTION, Property, Role, RoleSpace, SpaceReader
 
 ROBOT_POSITION = RoleSpace(Role.ROBOT, Property.POSITION)
 ROBOT_HEADING = RoleSpace(Role.ROBOT, Property.HEADING)
@@ -216,9 +216,7 @@ class Navigator:
         """`aff`'s context in each observation of `obs`, each repeated for `n` commands."""
         if not aff.contexts:
             return None
-        m = obs.shape[0]
-        rows = Rows(np.arange(m), np.full(m, target), np.full(m, tool))
-        return np.repeat(self.reader.read_many(aff.contexts, obs, rows), n, 0)
+        return np.repeat(self.reader.read_each(aff.contexts, obs, target, tool), n, 0)
 
     def _prediction(self, position: np.ndarray, heading: np.ndarray, shift: np.ndarray,
                     after: np.ndarray) -> Prediction:

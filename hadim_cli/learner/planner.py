@@ -38,7 +38,7 @@ from hadim_cli.learner.navigation import (
     line_angle,
 )
 from hadim_cli.learner.routes import Obstacles
-from hadim_cli.learner.spaces import ACTION, Property, Role, RoleSpace, Rows, SpaceReader
+from hadim_cli.learner.spaces import ACTION, Property, Role, RoleSpace, SpaceReader
 from hadim_cli.world.layout import ROBOT
 
 LINE_STEP = 0.025
@@ -612,9 +612,7 @@ class Planner:
         """`aff`'s context in each observation of `arr` (B, D), each repeated `n` times."""
         if not aff.contexts:
             return None
-        m = arr.shape[0]
-        rows = Rows(np.arange(m), np.full(m, b.target), np.full(m, b.tool))
-        return np.repeat(self.reader.read_many(aff.contexts, arr, rows), n, 0)
+        return np.repeat(self.reader.read_each(aff.contexts, arr, b.target, b.tool), n, 0)
 
     def _in_convoy(self, aff: Affordance, b: Binding) -> bool:
         """Whether `aff` is the robot pushing an object for a `convoy` move of it: the entity

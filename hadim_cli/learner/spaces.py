@@ -279,6 +279,14 @@ class SpaceReader:
             return np.zeros((len(rows), 0))
         return np.concatenate([self.read(s, arr, rows) for s in spaces], axis=1)
 
+    def read_each(self, spaces: tuple[RoleSpace, ...], obs: np.ndarray, target: int = -1,
+                  tool: int = -1) -> np.ndarray:
+        """`spaces` (concatenated) in each observation of `obs` (B, D) under one binding: a
+        (B, dims) array, row i read from `obs[i]` as `value_now` reads one."""
+        m = obs.shape[0]
+        return self.read_many(spaces, obs, Rows(np.arange(m), np.full(m, target),
+                                                np.full(m, tool)))
+
     def value_now(self, space: RoleSpace, obs: np.ndarray, target: int = -1,
                   tool: int = -1) -> np.ndarray:
         """The value of `space` in one observation under one binding."""
