@@ -618,7 +618,7 @@ class PlannerConfig:
     convoy_trailing: bool = True
     """With `convoy`: an object behind the output on the bearing of its place but short of
     it (the tool trailing behind the target, not yet touching it) holds the relation for a
-    convoy: the relation's gap to its place is taken at its own length (`Planner._trailing`),
+    convoy: the relation's gap to its place is taken at its own length (`Planner._convoy_hold`),
     and the convoy's first push closes the distance. Off: the distance counts as drift, and a
     tool staged a few centimetres short, or set out behind the target from the start, cost a
     trip to the place at contact before the convoy (runs stored before keep it off)."""

@@ -195,8 +195,7 @@ class Navigator:
     def _motions(self, obs: np.ndarray, target: int, tool: int, mover: Affordance,
                  turner: Affordance | None) -> tuple[np.ndarray, np.ndarray]:
         b, n = obs.shape[0], self.commands.shape[0]
-        heading = np.repeat(np.stack([self.reader.value_now(ROBOT_HEADING, o) for o in obs]),
-                            n, 0)
+        heading = np.repeat(self.reader.read_each((ROBOT_HEADING,), obs), n, 0)
         commands = np.tile(self.commands, (b, 1))
         c = self._contexts(mover, obs, target, tool, n)
         shift = mover.model.predict(commands, c)
@@ -293,9 +292,9 @@ class Navigator:
         """`allowed` from each of the observations `obs` (B, D), for the robot positions
         half-way through and after each command, `half` and `end` (B, N, 2): a (B, N) mask."""
         ok = np.ones(end.shape[:2], dtype=bool)
-        robot = np.stack([self.reader.entity_position(o, 0) for o in obs])[:, None]
+        robot = self.reader.entity_position(obs, 0)[:, None]
         for k in keepouts:
-            centre = np.stack([self.reader.entity_position(o, k.entity) for o in obs])[:, None]
+            centre = self.reader.entity_position(obs, k.entity)[:, None]
             now = np.linalg.norm(robot - centre, axis=-1)
             for pts in (half, end):
                 d = np.linalg.norm(pts - centre, axis=-1)

@@ -56,6 +56,8 @@ DRIFT_POWER = 4
 """`convoy_plan`'s cost of a relation's predicted drift, `convoy_drift_cost` × (gap /
 `realign`)^4: next to nothing while the relation is well within `realign`, the full cost as
 it reaches it."""
+CONVOY_PURSUIT = "convoy through the chain"
+"""The pursuit of a convoy's action chosen through the chain (`Planner._convoy_plan`)."""
 MIN_PROGRESS = 0.2
 """`convoy_plan` takes only commands predicted to bring the target this share of a step
 nearer its goal."""
@@ -146,6 +148,18 @@ def _context_part(aff: Affordance, c: np.ndarray, space: RoleSpace) -> np.ndarra
 def _at_length(v: np.ndarray, length: float) -> np.ndarray:
     """The vector `v` (not null) scaled to `length`, on its own bearing."""
     return v * (length / float(np.linalg.norm(v)))
+
+
+def _at_own_lengths(aff: Affordance, c: np.ndarray, v: np.ndarray, relations: np.ndarray,
+                    further: bool) -> np.ndarray:
+    """`v` with each relation of `relations` that the context `c` holds nearer than `v` does
+    (or, `further`, further) brought to `c`'s length on `v`'s own bearing."""
+    out = v.copy()
+    for i, sl in _slices(aff):
+        now, want = float(np.linalg.norm(c[sl])), float(np.linalg.norm(v[sl]))
+        if relations[i] and (now > want if further else now < want):
+            out[sl] = _at_length(v[sl], now)
+    return out
 
 
 def _unit_heading(h: np.ndarray | None) -> np.ndarray | None:
@@ -400,11 +414,10 @@ class Planner:
         (`convoy_goes_on`). Returns actions used, None when no convoy applies."""
         held = self._convoy_hold(aff, b, delta, c, near, relations, spreads, goal)
         if held is None:
-            if not self._goes_on(aff, b, goal, actuator.obs):
+            going = self._goes_on(aff, b, goal, actuator.obs)
+            if going is None or goal is None:
                 return None
-            held = _relation_slice(aff)
-            assert held is not None and goal is not None  # `_goes_on` checked them
-            return self._convoy_plan(aff, b, delta, c, near, held, actuator, goal)
+            return self._convoy_plan(aff, b, delta, c, near, going, actuator, goal)
         if self.pc.convoy_plan and goal is not None:
             done = self._convoy_plan(aff, b, delta, c, near, held, actuator, goal)
             if done is not None:
@@ -413,24 +426,26 @@ class Planner:
                                  budget, depth)
 
     def _goes_on(self, aff: Affordance, b: Binding, goal: np.ndarray | None,
-                 obs: np.ndarray) -> bool:
-        """`convoy_goes_on`: whether a convoy whose relation drifted past `realign` pushes on
-        through the chain — its last action was the convoy's, and the output pushed on along
-        the line from its input (the target along the tool–target line) would pass within
-        `small_correction` of a step of `goal`: a correction is no trip worth taking for
-        what it could still gain (traced near goals: three corrections of 13–24 actions for
-        8 cm, each leaving the line 15–25° off again)."""
+                 obs: np.ndarray) -> tuple[int, slice] | None:
+        """`convoy_goes_on`: the relation (as `_held_relation` gives it) by which a convoy
+        whose relation drifted past `realign` pushes on through the chain — its last action
+        was the convoy's, and the output pushed on along the line from its input (the target
+        along the tool–target line) would pass within `small_correction` of a step of
+        `goal`: a correction is no trip worth taking for what it could still gain (traced
+        near goals: three corrections of 13–24 actions for 8 cm, each leaving the line
+        15–25° off again). None: it does not go on."""
+        relation = _relation_slice(aff)
         if not (self.pc.convoy_goes_on and self.pc.convoy_plan and self._convoy_acted
                 and goal is not None and self._entity(aff.input, b) > 0
-                and _relation_slice(aff) is not None):
-            return False
+                and relation is not None):
+            return None
         output = self.reader.entity_position(obs, self._entity(aff.output, b))
         line = output - self.reader.entity_position(obs, self._entity(aff.input, b))
         way = goal - output
         rem = float(np.linalg.norm(way))
         cos = float(line @ way) / max(rem * float(np.linalg.norm(line)), 1e-12)
         miss = rem * float(np.sqrt(max(1.0 - cos * cos, 0.0))) if cos > 0.0 else rem
-        return miss <= self.pc.small_correction * self.step_size(aff)
+        return relation if miss <= self.pc.small_correction * self.step_size(aff) else None
 
     def straight_move(self, aff: Affordance, delta: np.ndarray, c: np.ndarray,
                       x: np.ndarray) -> np.ndarray:
@@ -511,12 +526,11 @@ class Planner:
                                           goal, keep, obs)
         if command is None or self._idle_repeat(command, obs):
             return None
-        self.stack.append(Pursuit("convoy through the chain", goal, b))
+        self.stack.append(Pursuit(CONVOY_PURSUIT, goal, b))
         try:
             self._act(actuator, command)
         finally:
             self.stack.pop()
-        self._convoy_acted = True
         return 1
 
     def _chain_command(self, aff: Affordance, push: Affordance, b: Binding, sub_b: Binding,
@@ -533,10 +547,12 @@ class Planner:
         if first is None:
             return None
         after, cost, ok = first
-        pred = self.navigator.predict(obs, sub_b.target, sub_b.tool)
-        assert pred is not None  # `_chain` predicted from the same observation
-        ok = (ok[0] & self.navigator.allowed(obs, pred, keep)
-              & ~self._idle_repeats(pred.commands, obs))
+        commands = self.navigator.commands
+        robot = self.reader.entity_position(obs, 0)
+        end = self.reader.entity_position(after[0], 0)
+        ok = (ok[0] & self.navigator.allowed_many(obs[None], (0.5 * (robot + end))[None],
+                                                  end[None], keep)[0]
+              & ~self._idle_repeats(commands, obs))
         if not ok.any():
             return None
         value, after = cost[0], after[0]
@@ -553,7 +569,7 @@ class Planner:
             pick = np.argmin(np.where(ok_then, cost_then, np.inf), axis=1)
             after = after.copy()
             after[live] = after_then[np.arange(live.size), pick]
-        return pred.commands[int(np.argmin(np.where(ok, value, np.inf)))].copy()
+        return commands[int(np.argmin(np.where(ok, value, np.inf)))].copy()
 
     def _chain(self, aff: Affordance, push: Affordance, b: Binding, sub_b: Binding,
                arr: np.ndarray, lengths: tuple[float, float], held: tuple[int, slice],
@@ -578,7 +594,7 @@ class Planner:
         out = aff.model.predict(moved, self._contexts(aff, arr, b, n))
         tool, target = self._entity(aff.input, b), self._entity(aff.output, b)
         lay = self.reader.layout
-        robot = np.repeat(np.stack([self.reader.entity_position(o, 0) for o in arr]), n, 0)
+        robot = np.repeat(self.reader.entity_position(arr, 0), n, 0)
         nxt = np.repeat(arr, n, 0)
         for entity, move in ((0, flat), (tool, moved), (target, out)):
             nxt[:, lay.space(lay.entities[entity], Property.POSITION).slice] += move
@@ -586,7 +602,7 @@ class Planner:
         positions = nxt[:, lay.object_columns(Property.POSITION)]
         nxt[:, lay.object_columns(Property.RELATIVE)] = (
             positions - nxt[:, None, lay.space(ROBOT, Property.POSITION).slice])
-        ends = nxt[:, lay.space(lay.entities[target], Property.POSITION).slice]
+        ends = self.reader.entity_position(nxt, target)
         rem = np.linalg.norm(goal - ends, axis=1)
         way = (goal - ends) / np.maximum(rem, 1e-12)[:, None]
         step = self.step_size(aff)
@@ -596,11 +612,10 @@ class Planner:
             rel = self._contexts(who, nxt, bind, 1)[:, sl]
             gap = np.linalg.norm(rel - length * way, axis=1) / self._spreads(who)[i]
             cost = cost + self.pc.convoy_drift_cost * (gap / self.pc.realign) ** DRIFT_POWER
-        before = np.repeat(np.stack([self.reader.entity_position(o, target) for o in arr]), n, 0)
-        toward = np.repeat(np.stack([self.reader.entity_position(o, tool) for o in arr]),
-                           n, 0) - robot
+        before = np.repeat(self.reader.entity_position(arr, target), n, 0)
+        toward = np.repeat(self.reader.entity_position(arr, tool), n, 0) - robot
         toward /= np.maximum(np.linalg.norm(toward, axis=1), 1e-12)[:, None]
-        was = np.repeat(np.stack([self.value(ROBOT_HEADING, o, sub_b) for o in arr]), n, 0)
+        was = np.repeat(self.reader.read_each((ROBOT_HEADING,), arr), n, 0)
         turn = np.arccos(np.clip(np.sum(heading.reshape(-1, 2) * was, axis=1), -1.0, 1.0))
         ok = ((rem < np.linalg.norm(goal - before, axis=1) - MIN_PROGRESS * step)
               & (np.sum(flat * toward, axis=1) >= MIN_PROGRESS * step)
@@ -703,7 +718,9 @@ class Planner:
         if not self.pc.convoy:
             return None
         if self.pc.convoy_trailing:
-            near = self._trailing(aff, c, near, relations)
+            # A relation further than its place on the place's bearing (a tool trailing
+            # behind the target) holds: what is left of its gap is the bearing's.
+            near = _at_own_lengths(aff, c, near, relations, further=True)
         return self._held_relation(aff, b, delta, self._gap(aff, spreads, c, near, relations),
                                    goal)
 
@@ -1058,25 +1075,7 @@ class Planner:
         pusher 9 cm off its place, and the next step sent it back there (a trip per push)."""
         if not self.pc.closer_places:
             return needed
-        out = needed.copy()
-        for i, sl in _slices(aff):
-            now = float(np.linalg.norm(c[sl]))
-            if relations[i] and now < float(np.linalg.norm(needed[sl])):
-                out[sl] = _at_length(needed[sl], now)
-        return out
-
-    @staticmethod
-    def _trailing(aff: Affordance, c: np.ndarray, near: np.ndarray,
-                  relations: np.ndarray) -> np.ndarray:
-        """`near` with each relation of `relations` that `c` holds further (the bodies apart:
-        a tool trailing behind the target) brought to `c`'s length on its own bearing
-        (`convoy_trailing`): what is then left of the gap is the bearing's."""
-        out = near.copy()
-        for i, sl in _slices(aff):
-            now = float(np.linalg.norm(c[sl]))
-            if relations[i] and now > float(np.linalg.norm(near[sl])):
-                out[sl] = _at_length(near[sl], now)
-        return out
+        return _at_own_lengths(aff, c, needed, relations, further=False)
 
     def _at_contact(self, aff: Affordance, needed: np.ndarray,
                     relations: np.ndarray) -> np.ndarray:
@@ -1231,9 +1230,9 @@ class Planner:
         """One primitive action, remembering whether it served a placement (`trips`) and
         whether it moved nothing (`_idle_repeat`)."""
         before = np.array(actuator.obs, dtype=float) if self.pc.skip_idle_repeats else None
-        self._convoy_acted = False
         actuator.act(action)
         self._placed_for = frozenset(p.places for p in self.stack if p.places >= 0)
+        self._convoy_acted = any(p.label == CONVOY_PURSUIT for p in self.stack)
         if before is None:
             return  # nothing is refused: no observation to keep
         after = np.array(actuator.obs, dtype=float)

@@ -309,8 +309,9 @@ class SpaceReader:
         return self.features(obs[None, :], Rows(one, np.array([entity]), one - 1))[0]
 
     def entity_position(self, obs: np.ndarray, entity: int) -> np.ndarray:
+        """The entity's position in one observation (2,), or in each of a batch (B, 2)."""
         start = self._entity_start[entity]
-        return obs[start:start + 2]
+        return obs[..., start:start + 2]
 
     def entity_radius(self, obs: np.ndarray, entity: int) -> float:
         name = self.layout.entities[entity]
