@@ -25,7 +25,7 @@ from hadim_cli.commands import (
     world,
 )
 from hadim_cli.errors import HadimError
-from store.errors import StoreError
+from hadim_store.errors import StoreError
 
 _METAVARS = {"<bool>": "", "<int>": "N", "<int range>": "N", "<float>": "X", "<path>": "FILE"}
 

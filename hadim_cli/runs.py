@@ -19,8 +19,8 @@ import numpy as np
 
 from hadim_cli.config import Config, stored_config
 from hadim_cli.errors import HadimError
-from store.api import Store
-from store.records import (
+from hadim_store.api import Store
+from hadim_store.records import (
     AffordanceEvent,
     AffordanceStat,
     EpisodeWrite,
@@ -56,7 +56,7 @@ opened: list[str] = []
 def open_store(option: str | None, *, create: bool = True, writes: bool = True) -> Store:
     """The store a command names; one that `writes` first has its file checked (SQLite's
     `PRAGMA quick_check`), so that a damaged store is refused rather than written into."""
-    from store import engine
+    from hadim_store import engine
 
     where = store_location(option)
     opened[:] = [where]
@@ -70,7 +70,7 @@ def open_store(option: str | None, *, create: bool = True, writes: bool = True) 
 
 
 def snapshot_every() -> int:
-    from store.deltas import DEFAULT_SNAPSHOT_EVERY
+    from hadim_store.deltas import DEFAULT_SNAPSHOT_EVERY
 
     raw = os.environ.get(SNAPSHOT_ENV, "").strip()
     if not raw:

@@ -19,10 +19,10 @@ from sqlalchemy import URL, Engine, Select, delete, func, insert, literal, selec
 from sqlalchemy.exc import IntegrityError
 from sqlalchemy.orm import Session, sessionmaker
 
-from store import codecs, deltas, locking
-from store import engine as engines
-from store.errors import RunLocked, StoreError, UnknownRun
-from store.models import (
+from hadim_store import codecs, deltas, locking
+from hadim_store import engine as engines
+from hadim_store.errors import RunLocked, StoreError, UnknownRun
+from hadim_store.models import (
     AffordanceEventRow,
     AffordanceStatRow,
     CheckpointItem,
@@ -33,7 +33,7 @@ from store.models import (
     Meta,
     Run,
 )
-from store.records import (
+from hadim_store.records import (
     AffordanceEvent,
     AffordanceStat,
     Checkpoint,
@@ -45,7 +45,7 @@ from store.records import (
     RunRecord,
     RunStatus,
 )
-from store.schema import Upgrade
+from hadim_store.schema import Upgrade
 
 DEFAULT_LOCK_TIMEOUT_S = 60.0
 _NAME_RE = re.compile(r"[A-Za-z0-9][A-Za-z0-9._-]{0,63}")
@@ -161,7 +161,7 @@ class Store:
         it is, unstamped): opening then writes nothing to the schema. An older schema is
         migrated; a newer one is refused. ``compress`` deflates new arrays with zlib.
         One checkpoint in ``snapshot_every`` that this object writes for a run is a full
-        snapshot, the others deltas (1: all full); see :mod:`store.deltas`.
+        snapshot, the others deltas (1: all full); see :mod:`hadim_store.deltas`.
         """
         resolved, where = _locate(url, create=create)
         engine = engines.make_engine(resolved)

@@ -15,8 +15,8 @@ from sqlalchemy.engine import URL, make_url
 from sqlalchemy.exc import ArgumentError, DBAPIError, NoSuchModuleError, OperationalError
 from sqlalchemy.pool import StaticPool
 
-from store import migrations, schema
-from store.errors import DamagedStore, SchemaError, StoreError
+from hadim_store import migrations, schema
+from hadim_store.errors import DamagedStore, SchemaError, StoreError
 
 BUSY_TIMEOUT_S = 10.0
 _SQLITE_HEADER = b"SQLite format 3\x00"

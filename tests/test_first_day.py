@@ -14,7 +14,7 @@ from typer.testing import CliRunner
 
 from hadim_cli.app import app
 from hadim_cli.config import configs_dir
-from store.api import Store
+from hadim_store.api import Store
 
 ROOT = Path(__file__).resolve().parents[1]
 SMALL = ("--set", "world.episode_length=25", "--set", 'evaluation.tasks=["move-robot"]')
@@ -289,8 +289,10 @@ def test_the_wheel_lists_every_package_and_ships_the_configs():
     setup = project["tool"]["setuptools"]
     on_disk = {".".join(p.parent.relative_to(ROOT).parts)
                for top in ("hadim_cli", "store") for p in (ROOT / top).rglob("__init__.py")}
-    assert on_disk | {"hadim_cli.configs"} == set(setup["packages"])
-    assert setup["package-dir"] == {"hadim_cli.configs": "configs"}
+    installed = {"hadim_store" + name[len("store"):] if name.startswith("store") else name
+                 for name in on_disk}
+    assert installed | {"hadim_cli.configs"} == set(setup["packages"])
+    assert setup["package-dir"] == {"hadim_cli.configs": "configs", "hadim_store": "store"}
     data = setup["package-data"]["hadim_cli.configs"]
     shipped = {p.relative_to(ROOT / "configs") for pattern in data
                for p in (ROOT / "configs").glob(pattern)}
@@ -440,3 +442,21 @@ def test_figures_name_the_run_and_tell_input_from_context(store, tmp_path, monke
     assert inputs and contexts  # run-1 has affordances with contexts by iteration 100
     labels = [t.get_text() for t in ax.texts]
     assert any(t.startswith("in: ") for t in labels)
+
+
+def test_no_module_imports_the_store_by_its_folder_name():
+    """The store installs as `hadim_store` (pyproject.toml's package-dir): an import of a bare
+    `store` works in the checkout only, and would fail (or find another distribution's
+    `store`) once installed."""
+    import ast
+
+    wrong = []
+    for top in ("hadim_cli", "store", "tests", "scripts"):
+        for path in (ROOT / top).rglob("*.py"):
+            for node in ast.walk(ast.parse(path.read_text())):
+                names = ([a.name for a in node.names] if isinstance(node, ast.Import)
+                         else [node.module or ""] if isinstance(node, ast.ImportFrom)
+                         and node.level == 0 else [])
+                wrong += [f"{path.relative_to(ROOT)}: {n}" for n in names
+                          if n == "store" or n.startswith("store.")]
+    assert not wrong, wrong

@@ -23,7 +23,7 @@ import pytest
 
 from hadim_cli import runs
 from hadim_cli.app import app
-from store.api import Store
+from hadim_store.api import Store
 
 SEED = 5
 # Long enough for a non-empty H (the first affordances appear at ~24 iterations); runs go in
@@ -407,7 +407,7 @@ def test_the_lock_is_kept_alive_through_a_long_step(runner, tmp_path, monkeypatc
     process take the lock over as stale: the trainer's heartbeat thread keeps it fresh."""
     import threading
 
-    from store.errors import RunLocked
+    from hadim_store.errors import RunLocked
 
     # Margins wide enough for a loaded CI machine: beats every timeout/4 = 0.5 s, one slow
     # step of 2.5 × timeout; the thief polls throughout.

@@ -16,7 +16,7 @@ import pytest
 from hadim_cli.app import app
 from hadim_cli.errors import HadimError
 from hadim_cli.sweep.plan import RunKind, build_plan, parse_grid, parse_seeds
-from store.api import Store
+from hadim_store.api import Store
 
 SMALL = ["--set", "world.episode_length=50", "-n", "100", "--eval-every", "0"]
 ROOT = Path(__file__).resolve().parents[1]

@@ -28,8 +28,8 @@ from hadim_cli.errors import HadimError
 from hadim_cli.evaluation.runner import TaskResult
 from hadim_cli.evaluation.tasks import Task, load_task
 from hadim_cli.runs import Progress, package_versions
-from store.api import Store
-from store.records import EpisodeWrite, RunRecord
+from hadim_store.api import Store
+from hadim_store.records import EpisodeWrite, RunRecord
 
 STATE_FORMAT = 1
 

@@ -10,7 +10,7 @@ import typer
 
 from hadim_cli.commands.common import StoreOption
 from hadim_cli.errors import HadimError
-from store.errors import DamagedStore
+from hadim_store.errors import DamagedStore
 
 app = typer.Typer(help="Check a store file; upgrade a store's schema.", no_args_is_help=True)
 
@@ -20,7 +20,7 @@ def check(store: StoreOption = None) -> None:
     """SQLite's integrity check of the store file, then every run read back (D, timeline,
     latest checkpoint). Exit 0 if all is sound, 1 if anything is damaged; writes nothing."""
     from hadim_cli import runs
-    from store import engine
+    from hadim_store import engine
 
     where = runs.store_location(store)
     if "://" in where:
@@ -60,7 +60,7 @@ def upgrade(
     opening a store does not apply (docs/store.md), in one transaction: a failure leaves the
     store as it was. A store newer than this hadim is refused, unchanged."""
     from hadim_cli import runs
-    from store.api import upgrade_store
+    from hadim_store.api import upgrade_store
 
     where = runs.store_location(store)
     if "://" not in where and not Path(where).is_file():
@@ -83,8 +83,8 @@ def upgrade(
 
 def _check_runs(where: str) -> int:
     """Read every run back; print one line per run; the number that fail."""
-    from store.api import Store
-    from store.errors import SchemaError
+    from hadim_store.api import Store
+    from hadim_store.errors import SchemaError
 
     failed = 0
     try:

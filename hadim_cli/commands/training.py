@@ -57,7 +57,7 @@ def _drive(store, run_name: str, session, total: int, eval_every: int,
 
     from hadim_cli import runs
     from hadim_cli.progress import Reporter, say, summary
-    from store.records import RunStatus
+    from hadim_store.records import RunStatus
 
     owner = runs.owner_id()
     began, start = time.monotonic(), session.iteration

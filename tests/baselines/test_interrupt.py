@@ -15,8 +15,8 @@ import pytest
 from typer.testing import CliRunner
 
 from hadim_cli.app import app
-from store.api import Store
-from store.errors import StoreError
+from hadim_store.api import Store
+from hadim_store.errors import StoreError
 
 ROOT = Path(__file__).resolve().parents[2]
 # DQN (networks, optimiser, replay buffer, ε schedule) learning from iteration 30 on, a
