@@ -7,6 +7,7 @@ checkpoint) and back.
 
 from __future__ import annotations
 
+import enum
 import os
 import socket
 from collections.abc import Callable
@@ -41,8 +42,23 @@ STORE_ENV = "HADIM_STORE"
 SNAPSHOT_ENV = "HADIM_SNAPSHOT_EVERY"
 """One checkpoint in this many is a full snapshot, the others deltas (store/deltas.py)."""
 DEFAULT_STORE = "hadim.sqlite"
+TARGET_KEY = "target"
+"""Key, in an episode's `extra`, of the iterations the run was being driven to."""
+DEFAULT_ITERATIONS = 4000
+"""What `hadim train` runs, and `hadim resume` continues a run to when it has no target."""
 STATE_FORMAT = 2
 READABLE_STATE_FORMATS = (1, 2)
+
+
+class RunKind(enum.StrEnum):
+    """What drives a run: the paper's learner, or a reinforcement-learning baseline."""
+
+    LEARNER = "learner"
+    BASELINE = "baseline"
+
+
+def run_kind(run: RunRecord) -> RunKind:
+    return RunKind.BASELINE if run.config.get("kind") == "baseline" else RunKind.LEARNER
 
 
 def store_location(option: str | None) -> str:
@@ -167,7 +183,9 @@ def _store_event(e: Event) -> AffordanceEvent:
                            e.contexts, e.competence, dict(e.detail))
 
 
-def episode_write(session: Session, log: EpisodeLog) -> EpisodeWrite:
+def episode_write(session: Session, log: EpisodeLog, target: int | None = None) -> EpisodeWrite:
+    """What the store keeps of one episode; `target`, the iterations the run is being driven
+    to, goes into its `extra` (what `hadim resume RUN` continues to)."""
     d = session.learner.dataset
     stop = log.stop
     events = [_store_event(e) for le in log.learning for e in le.events]
@@ -185,6 +203,8 @@ def episode_write(session: Session, log: EpisodeLog) -> EpisodeWrite:
          "affordance": le.affordance_id, "goal": list(le.goal), "competence": le.competence,
          "drawn": le.drawn.value, "fallbacks": [f.value for f in le.fallbacks]}
         for le in log.learning]}
+    if target is not None:
+        extra[TARGET_KEY] = target
     return EpisodeWrite(
         index=log.index, first_iteration=log.start,
         actions=d.actions[log.start:stop].copy(), contexts=d.contexts[log.start:stop].copy(),
@@ -247,7 +267,7 @@ def train(store: Store | None, run: str | None, session: Session, total: int, *,
 
     def after_episode(log: EpisodeLog) -> bool:
         if store is not None and run is not None:
-            store.write_episode(run, episode_write(session, log), owner=owner)
+            store.write_episode(run, episode_write(session, log, total), owner=owner)
         it = session.iteration
         if eval_every and it % eval_every == 0 and tasks:
             for name, result in evaluate_tasks(session, tasks).items():
@@ -265,9 +285,20 @@ def train(store: Store | None, run: str | None, session: Session, total: int, *,
     return scores
 
 
+def target_iterations(store: Store, run: RunRecord, default: int) -> int:
+    """The iterations `run` was last driven to (by `train`, `resume`), as its last stored
+    episode records them; `default` for a run without such a record (none stored yet, or
+    stored by an older hadim)."""
+    extra = store.last_episode_extra(run.name)
+    target = None if extra is None else extra.get(TARGET_KEY)
+    return target if isinstance(target, int) and target > 0 else default
+
+
 def new_run(store: Store, config: Config, seed: int, name: str | None) -> RunRecord:
     return store.create_run(config=config.to_dict(), seed=seed, name=name,
                             versions=package_versions())
+
+
 
 
 def finish_status(session: Session, total: int) -> RunStatus:

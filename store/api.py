@@ -194,6 +194,14 @@ class Store:
     def __repr__(self) -> str:
         return f"Store({self._where!r})"
 
+    def flush_wal(self) -> None:
+        """SQLite: move the write-ahead log's pages into the database file (a WAL checkpoint),
+        so that the file's size is the store's; nothing on other backends."""
+        if not engines.is_sqlite(self._engine.url) or engines.sqlite_file(self._engine.url) is None:
+            return
+        with self._engine.connect() as conn:
+            conn.exec_driver_sql("PRAGMA wal_checkpoint(TRUNCATE)")
+
     @contextmanager
     def session_scope(self, *, write: bool = True) -> Iterator[Session]:
         """A session whose work is committed on success and rolled back on any error."""
@@ -422,6 +430,16 @@ class Store:
             if upto is not None:
                 query = query.where(Episode.first_iteration + Episode.n_iterations <= upto)
             return [_episode_record(row) for row in session.scalars(query)]
+
+    def last_episode_extra(self, name: str) -> dict[str, Any] | None:
+        """The ``extra`` of the run's last stored episode (None if it has none), without
+        reading its arrays."""
+        with self.session_scope(write=False) as session:
+            query = (select(Episode.extra_json)
+                     .where(Episode.run_id == _run_row(session, name).id)
+                     .order_by(Episode.episode_index.desc()).limit(1))
+            text_ = session.scalar(query)
+        return None if text_ is None else codecs.decode_json(text_)
 
     def dataset(self, name: str, upto_iteration: int | None = None) -> DatasetArrays:
         """D: every stored iteration's action, context and outcome, concatenated in order.

@@ -354,7 +354,7 @@ def test_the_progress_bar_shows_an_eta():
 
 def test_ctrl_c_with_a_dead_pipe_still_tells_how_to_resume(tmp_path):
     """`hadim train 2>&1 | tee log`, Ctrl-C: tee dies of the same signal. The run pauses, the
-    resume command reaches the terminal, and the exit status is the documented 0."""
+    resume command reaches the terminal, and the exit status is the documented 130."""
     import pty
     import signal
     import time
@@ -387,9 +387,9 @@ def test_ctrl_c_with_a_dead_pipe_still_tells_how_to_resume(tmp_path):
             break
         said += chunk
     _, status = os.waitpid(pid, 0)
-    assert os.WEXITSTATUS(status) == 0, (status, said)
+    assert os.WEXITSTATUS(status) == 130, (status, said)
     text = said.decode()
-    assert "paused at iteration" in text and "hadim resume run-1 --iterations 100000" in text
+    assert "paused at iteration" in text and f"hadim resume run-1 --store {path}" in text
     assert "run-1: paused at iteration" in text  # the summary follows it
     with Store.open(path, create=False) as st:
         assert st.get_run("run-1").status.value == "paused"
