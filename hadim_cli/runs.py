@@ -44,6 +44,8 @@ SNAPSHOT_ENV = "HADIM_SNAPSHOT_EVERY"
 DEFAULT_STORE = "hadim.sqlite"
 TARGET_KEY = "target"
 """Key, in an episode's `extra`, of the iterations the run was being driven to."""
+HIERARCHY_KEY = "hierarchy"
+"""Key, in an episode's `extra`, of H's rows at its end (`reports.affordance_rows`)."""
 DEFAULT_ITERATIONS = 4000
 """What `hadim train` runs, and `hadim resume` continues a run to when it has no target."""
 STATE_FORMAT = 2
@@ -69,20 +71,93 @@ opened: list[str] = []
 """The store this process opened last: named in the one-line message of a database error."""
 
 
+reading: list[str] = []
+"""The run this process reads: named in the one line that a damaged row of it gives."""
+file_damage: list[str] = []
+"""SQLite's findings (`PRAGMA quick_check`) on the store this process opened to read."""
+
+
 def open_store(option: str | None, *, create: bool = True, writes: bool = True) -> Store:
-    """The store a command names; one that `writes` first has its file checked (SQLite's
-    `PRAGMA quick_check`), so that a damaged store is refused rather than written into."""
+    """The store a command names. Its file is checked first (SQLite's `PRAGMA quick_check`,
+    well under a second): one that `writes` is refused if damaged, rather than written into;
+    for one that only reads, the findings are kept for `chosen_run` and `damaged_runs`."""
     from hadim_store import engine
 
     where = store_location(option)
     opened[:] = [where]
+    reading.clear()
+    file_damage.clear()
     is_file = "://" not in where
     if not create and is_file and not Path(where).exists():
         raise HadimError(f"no store at {where} (train a run first, or pass --store)")
-    if writes and is_file and Path(where).is_file() and Path(where).stat().st_size > 0:
+    if is_file and Path(where).is_dir():
+        raise HadimError(f"{where} is a directory, not a store file")
+    if is_file and Path(where).is_file() and Path(where).stat().st_size > 0:
         engine.check_sqlite_file(Path(where), create=create)
-        engine.require_intact(Path(where))
+        if writes:
+            engine.require_intact(Path(where))
+        else:
+            file_damage[:] = engine.quick_check(Path(where))
     return Store.open(where, create=create, snapshot_every=snapshot_every())
+
+
+def chosen_run(store: Store, name: str | None) -> RunRecord:
+    """The run a command names, or (no name) the store's most recently updated one, said on
+    stderr. In a file SQLite finds damaged, the run is first read back as `hadim store check`
+    reads it: a damaged run is one line, never a silent answer."""
+    from hadim_cli.progress import say
+
+    if name is None:
+        records = store.list_runs()
+        if not records:
+            raise HadimError(f"no run in {store_location(opened[0] if opened else None)} yet: "
+                             "start one with `hadim train`")
+        record = max(records, key=lambda r: r.updated_at)  # ties: the first created
+        say(f"run {record.name} (the store's most recent; name a run to read another)")
+    else:
+        record = store.get_run(name)
+    reading[:] = [record.name]
+    if file_damage:
+        reason = unreadable(store, record.name)
+        if reason is not None:
+            raise HadimError(damage_line(record.name, reason))
+        say(f"warning: {opened[0]} is damaged, though run {record.name} reads back whole: "
+            f"`hadim store check --store {opened[0]}` says which runs can be read")
+    return record
+
+
+def unreadable(store: Store, name: str) -> str | None:
+    """Why run `name` cannot be read back whole (None if it can): its record, D, timeline,
+    statistics, evaluations and every checkpoint, read as `hadim store check` reads them."""
+    try:
+        store.get_run(name)
+        store.dataset_sha256(name)
+        store.events(name)
+        store.stats(name)
+        store.evaluations(name)
+        for it in store.checkpoint_iterations(name):
+            store.checkpoint(name, it)
+    except Exception as exc:  # noqa: BLE001 — any failure to read it back is damage
+        return short_reason(exc)
+    return None
+
+
+def short_reason(exc: BaseException, limit: int = 60) -> str:
+    """The first line of a database or decoding error, without the row content some carry
+    (SQLite's "Could not decode ... with text '…'"), at most `limit` characters."""
+    import re
+
+    text = str(getattr(exc, "orig", None) or exc).strip().splitlines()
+    line = re.sub(r"\s+with text\s+.*$", "", text[0] if text else type(exc).__name__)
+    line = re.sub(r"\s*\(char \d+\)$", "", line)
+    return line if len(line) <= limit else line[:limit - 1] + "…"
+
+
+def damage_line(run: str | None, reason: str) -> str:
+    """The one line a damaged store gives a command (after `error: `)."""
+    where = opened[0] if opened else "the store"
+    what = f"run {run} cannot be read: {where} is damaged" if run else f"{where} is damaged"
+    return f"{what} ({reason}); see `hadim store check --store {where}`"
 
 
 def snapshot_every() -> int:
@@ -186,6 +261,8 @@ def _store_event(e: Event) -> AffordanceEvent:
 def episode_write(session: Session, log: EpisodeLog, target: int | None = None) -> EpisodeWrite:
     """What the store keeps of one episode; `target`, the iterations the run is being driven
     to, goes into its `extra` (what `hadim resume RUN` continues to)."""
+    from hadim_cli.reports import affordance_rows
+
     d = session.learner.dataset
     stop = log.stop
     events = [_store_event(e) for le in log.learning for e in le.events]
@@ -203,6 +280,8 @@ def episode_write(session: Session, log: EpisodeLog, target: int | None = None) 
          "affordance": le.affordance_id, "goal": list(le.goal), "competence": le.competence,
          "drawn": le.drawn.value, "fallbacks": [f.value for f in le.fallbacks]}
         for le in log.learning]}
+    # H as `hadim affordances` shows it, kept so that it reads H without restoring the session.
+    extra[HIERARCHY_KEY] = affordance_rows(session)
     if target is not None:
         extra[TARGET_KEY] = target
     return EpisodeWrite(
@@ -289,9 +368,24 @@ def target_iterations(store: Store, run: RunRecord, default: int) -> int:
     """The iterations `run` was last driven to (by `train`, `resume`), as its last stored
     episode records them; `default` for a run without such a record (none stored yet, or
     stored by an older hadim)."""
-    extra = store.last_episode_extra(run.name)
-    target = None if extra is None else extra.get(TARGET_KEY)
+    last = store.episode_extra(run.name)
+    target = None if last is None else last[1].get(TARGET_KEY)
     return target if isinstance(target, int) and target > 0 else default
+
+
+def stored_hierarchy(store: Store, run: RunRecord, at: int | None
+                     ) -> tuple[list[dict[str, Any]], int] | None:
+    """H's rows (`reports.affordance_rows`) and their iteration, as stored with the last
+    episode at or before `at`: what `hadim affordances RUN` shows, read without the learner.
+    None when they must be computed from a restored session (episodes from an older hadim)."""
+    found = store.episode_extra(run.name, at)
+    if found is None:
+        if at is not None and at > 0 and run.iterations > 0:
+            raise HadimError(f"run {run.name} has no checkpoint at or before iteration {at}")
+        return [], 0  # nothing trained yet: H is empty
+    iteration, extra = found
+    rows = extra.get(HIERARCHY_KEY)
+    return None if rows is None else (rows, iteration)
 
 
 def new_run(store: Store, config: Config, seed: int, name: str | None) -> RunRecord:
@@ -303,3 +397,11 @@ def new_run(store: Store, config: Config, seed: int, name: str | None) -> RunRec
 
 def finish_status(session: Session, total: int) -> RunStatus:
     return RunStatus.FINISHED if session.iteration >= total else RunStatus.PAUSED
+
+
+def damaged_runs(store: Store, records: list[RunRecord]) -> list[str]:
+    """The runs that cannot be read back whole, looked for only in a file SQLite finds
+    damaged (`open_store`): a sound file costs nothing here."""
+    if not file_damage:
+        return []
+    return [r.name for r in records if unreadable(store, r.name) is not None]

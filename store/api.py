@@ -431,15 +431,20 @@ class Store:
                 query = query.where(Episode.first_iteration + Episode.n_iterations <= upto)
             return [_episode_record(row) for row in session.scalars(query)]
 
-    def last_episode_extra(self, name: str) -> dict[str, Any] | None:
-        """The ``extra`` of the run's last stored episode (None if it has none), without
-        reading its arrays."""
+    def episode_extra(self, name: str, upto_iteration: int | None = None
+                      ) -> tuple[int, dict[str, Any]] | None:
+        """The last stored episode's end iteration and ``extra`` (with ``upto_iteration=t``, the
+        last finished by iteration t), without reading its arrays; None if there is none."""
+        upto = _check_iteration(upto_iteration, "upto_iteration")
+        end = Episode.first_iteration + Episode.n_iterations
         with self.session_scope(write=False) as session:
-            query = (select(Episode.extra_json)
+            query = (select(end, Episode.extra_json)
                      .where(Episode.run_id == _run_row(session, name).id)
                      .order_by(Episode.episode_index.desc()).limit(1))
-            text_ = session.scalar(query)
-        return None if text_ is None else codecs.decode_json(text_)
+            if upto is not None:
+                query = query.where(end <= upto)
+            row = session.execute(query).first()
+        return None if row is None else (int(row[0]), codecs.decode_json(row[1]))
 
     def dataset(self, name: str, upto_iteration: int | None = None) -> DatasetArrays:
         """D: every stored iteration's action, context and outcome, concatenated in order.

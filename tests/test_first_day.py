@@ -426,22 +426,22 @@ def test_reproducing_the_paper_is_described_by_sweep_and_report():
     assert "docs/figures" in readme
 
 
-def test_figures_name_the_run_and_tell_input_from_context(store, tmp_path, monkeypatch):
-    from hadim_cli import plots
+def test_figures_name_the_run_and_tell_input_from_context(store, tmp_path):
+    from hadim_cli.plots import competence_figure, timeline_figure
 
-    figures = []
-    monkeypatch.setattr(plots, "_save", lambda plt, fig, out: figures.append(fig))
-    ok("plot", "run-1", "--out", tmp_path / "c.png", "--store", store)
-    ok("affordances", "run-1", "--timeline", "--out", tmp_path / "t.png", "--store", store)
-    curves, timeline = figures
+    with Store.open(store, create=False) as st:
+        evaluations, events = st.evaluations("run-1"), st.events("run-1")
+    curves = competence_figure({"run-1": evaluations}, tmp_path / "c.png", title="run run-1")
     assert "run-1" in curves.axes[0].get_title()
+    timeline = timeline_figure(events, 100, tmp_path / "t.png", title="run run-1: timeline")
     ax = timeline.axes[0]
     assert "run-1" in ax.get_title()
     inputs = [p for p in ax.patches if not p.get_hatch()]
     contexts = [p for p in ax.patches if p.get_hatch()]
     assert inputs and contexts  # run-1 has affordances with contexts by iteration 100
-    labels = [t.get_text() for t in ax.texts]
-    assert any(t.startswith("in: ") for t in labels)
+    legend = [t.get_text() for t in ax.get_legend().get_texts()]
+    assert {e.input_space for e in events} | {c for e in events for c in e.context} \
+        <= set(legend)
 
 
 def test_no_module_imports_the_store_by_its_folder_name():

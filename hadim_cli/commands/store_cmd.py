@@ -27,6 +27,8 @@ def check(store: StoreOption = None) -> None:
         raise HadimError("hadim store check reads SQLite files only; check a database server "
                          "with its own tools")
     path = Path(where)
+    if path.is_dir():
+        raise HadimError(f"{where} is a directory, not a store file")
     if not path.is_file():
         raise HadimError(f"no store at {where}")
     try:
@@ -106,6 +108,7 @@ def _check_runs(where: str) -> int:
                 record = st.get_run(name)
                 st.dataset_sha256(name)
                 st.events(name)
+                st.stats(name)
                 st.evaluations(name)
                 iterations = st.checkpoint_iterations(name)
             except Exception as exc:  # noqa: BLE001
@@ -131,4 +134,6 @@ def _damaged_checkpoints(st, name: str, iterations: list[int]) -> list[int]:
 
 
 def _reason(exc: BaseException) -> str:
-    return str(getattr(exc, "orig", None) or exc).splitlines()[0]
+    from hadim_cli.runs import short_reason
+
+    return short_reason(exc, limit=120)
