@@ -104,8 +104,8 @@ def render_h_table(console: Console, rows: list[dict[str, Any]], iteration: int)
                       str(r["created_at"]), f"{r['competence']:.3f}", str(r["data"]),
                       str(r["effect"]), str(r["goals"]))
     console.print(table)
-    console.print("p_A, on the objects of the push-object task's scene (green: pushable, red: "
-                  "fixed):", markup=False, highlight=False)
+    console.print("p_A on the push-object scene's objects (green: pushable, red: fixed):",
+                  markup=False, highlight=False)
     # A grid: a long list of objects wraps under itself, indented past "A3 accepts".
     accepts = Table.grid(padding=(0, 1))
     accepts.add_column(no_wrap=True)
@@ -172,12 +172,12 @@ def render_timeline(console: Console, events: list) -> None:
     pipe, 80 columns) gets the affordance's id inside the event's cell instead of a column
     of its own, and the table keeps its borders."""
     table = _timeline_table(events, own_id_column=True)
-    if _least_width(table) > console.width:
+    if least_width(table) > console.width:
         table = _timeline_table(events, own_id_column=False)
     console.print(table)
 
 
-def _least_width(table: Table) -> int:
+def least_width(table: Table) -> int:
     """The narrowest a bordered table can be drawn without cutting a word (a line, in a
     column that does not wrap): rich's own measure leaves the borders out."""
     from rich.cells import cell_len
@@ -246,7 +246,7 @@ def render_eval(console: Console, result: TaskResult, iteration: int) -> None:
         if pushed:
             caption += "\n" + first_push_summary([p.first_push for p in pushed])
     table = _points_table(result, iteration, caption, with_start=True)
-    if _least_width(table) > console.width:  # 80 columns, or a pipe: the start goes
+    if least_width(table) > console.width:  # 80 columns, or a pipe: the start goes
         table = _points_table(result, iteration, caption, with_start=False)
     console.print(table)
 

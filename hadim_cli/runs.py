@@ -77,10 +77,12 @@ file_damage: list[str] = []
 """SQLite's findings (`PRAGMA quick_check`) on the store this process opened to read."""
 
 
-def open_store(option: str | None, *, create: bool = True, writes: bool = True) -> Store:
-    """The store a command names. Its file is checked first (SQLite's `PRAGMA quick_check`,
-    well under a second): one that `writes` is refused if damaged, rather than written into;
-    for one that only reads, the findings are kept for `chosen_run` and `damaged_runs`."""
+def open_store(option: str | None, *, create: bool = True, writes: bool = True,
+               run: str | None = None) -> Store:
+    """The store a command names (about `run`, if it names one). Its file is checked first
+    (SQLite's `PRAGMA quick_check`, well under a second): one that `writes` is refused if
+    damaged, rather than written into; for one that only reads, the findings are kept for
+    `chosen_run` and `damaged_runs`."""
     from hadim_store import engine
 
     where = store_location(option)
@@ -89,15 +91,14 @@ def open_store(option: str | None, *, create: bool = True, writes: bool = True) 
     file_damage.clear()
     is_file = "://" not in where
     if not create and is_file and not Path(where).exists():
-        raise HadimError(f"no store at {where} (train a run first, or pass --store)")
+        raise HadimError(f"no store at {where}: start a run with `hadim train`, or pass --store")
     if is_file and Path(where).is_dir():
         raise HadimError(f"{where} is a directory, not a store file")
     if is_file and Path(where).is_file() and Path(where).stat().st_size > 0:
         engine.check_sqlite_file(Path(where), create=create)
-        if writes:
-            engine.require_intact(Path(where))
-        else:
-            file_damage[:] = engine.quick_check(Path(where))
+        file_damage[:] = engine.quick_check(Path(where))
+        if writes and file_damage:  # writing would spread the damage
+            raise HadimError(damage_line(run, " ".join(file_damage[0].split()), writes=True))
     return Store.open(where, create=create, snapshot_every=snapshot_every())
 
 
@@ -153,11 +154,21 @@ def short_reason(exc: BaseException, limit: int = 60) -> str:
     return line if len(line) <= limit else line[:limit - 1] + "…"
 
 
-def damage_line(run: str | None, reason: str) -> str:
-    """The one line a damaged store gives a command (after `error: `)."""
+def damage_line(run: str | None, reason: str, *, writes: bool = False, limit: int = 193) -> str:
+    """The one line (after `error: `, at most `limit` characters when the store's name
+    allows) that a damaged store gives a command: the run, SQLite's or the decoder's reason
+    (shortened, never the row's content), and the command that says what can be saved."""
     where = opened[0] if opened else "the store"
-    what = f"run {run} cannot be read: {where} is damaged" if run else f"{where} is damaged"
-    return f"{what} ({reason}); see `hadim store check --store {where}`"
+    if run is None:
+        head = "the store is damaged"
+    elif writes:
+        head = f"run {run} untouched: the store is damaged"
+    else:
+        head = f"run {run} cannot be read: the store is damaged"
+    tail = f"; see `hadim store check --store {where}`"
+    room = max(limit - len(head) - len(tail) - 3, 12)
+    short = reason if len(reason) <= room else reason[:room - 1] + "…"
+    return f"{head} ({short}){tail}"
 
 
 def snapshot_every() -> int:

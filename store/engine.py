@@ -123,8 +123,9 @@ def require_intact(path: Path) -> None:
 
 def _damaged(path: Path, finding: str) -> DamagedStore:
     """The refusal of a store SQLite finds damaged (its `finding`), before anything is written."""
-    return DamagedStore(f"{path} is damaged ({finding}); nothing was written: run `hadim store "
-                        f"check --store {path}` and see docs/store.md, 'A damaged store'")
+    short = finding if len(finding) <= 60 else finding[:59] + "…"
+    return DamagedStore(f"the store is damaged ({short}); nothing was written: see `hadim "
+                        f"store check --store {path}`")
 
 
 def make_engine(url: URL) -> Engine:

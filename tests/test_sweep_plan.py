@@ -104,7 +104,8 @@ def test_unreachable_servers_are_one_line_and_create_nothing(runner, tmp_path):
     assert _refused(runner, "report", "x", "--out", out, "--store", "mongodb://h/db"
                     ).startswith("error: cannot use store URL mongodb://h/db")
     assert _refused(runner, "report", "x", "--out", out, "--store", store
-                    ) == f"error: no store at {store} (train a run first, or pass --store)"
+                    ) == f"error: no store at {store}: start a run with `hadim train`, or pass " \
+                         "--store"
     assert not store.exists() and not out.exists()
 
 

@@ -63,7 +63,14 @@ def runs_list(
             table.add_row(r.name, *((kind["kind"],) if wide else ()), what, status,
                           str(r.iterations), *((str(r.seed), parent) if wide else ()),
                           r.updated_at.strftime("%Y-%m-%d %H:%M" + (":%S" if wide else "")))
-        _console().print(table)
+        console = _console()
+        if wide:  # every column whole, however wide: the user asked for it
+            from rich.console import Console
+
+            from hadim_cli.reports import least_width
+
+            console = Console(width=max(console.width, least_width(table)))
+        console.print(table)
     if damaged:
         raise HadimError(runs.damage_line(None, f"{', '.join(damaged)} cannot be read"))
 
@@ -276,7 +283,7 @@ def eval_cmd(
     if (task is None) == (points is None):
         raise HadimError("give exactly one of --task NAME or --points FILE")
     chosen = load_task(task) if task is not None else load_task_file(points)
-    with runs.open_store(store, create=False) as st:
+    with runs.open_store(store, create=False, run=run) as st:
         record = runs.chosen_run(st, run)
         run = record.name
         if at is not None and at > record.iterations:

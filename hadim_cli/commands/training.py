@@ -69,7 +69,7 @@ def resume(
     from hadim_cli import runs
 
     resumers = {runs.RunKind.LEARNER: _resume_learner, runs.RunKind.BASELINE: resume_baseline}
-    with runs.open_store(store, create=False) as st:
+    with runs.open_store(store, create=False, run=run) as st:
         record = st.get_run(run)
         resumers[runs.run_kind(record)](st, record, iterations, eval_every, store)
 
@@ -108,7 +108,7 @@ def fork(
     from hadim_cli import runs
     from hadim_cli.config import stored_config, with_overrides
 
-    with runs.open_store(store, create=False) as st:
+    with runs.open_store(store, create=False, run=run) as st:
         parent = st.get_run(run)
         if runs.run_kind(parent) is runs.RunKind.BASELINE:
             raise HadimError(f"run {run} is a baseline run: fork is for the learner's runs")
