@@ -721,8 +721,9 @@ class ControllerConfig:
     tool task: docs/results.md)."""
     commands: int = 9
     """Primitive actions the search tries: an n × n grid over the action space."""
-    horizon: int = 2
-    """Actions a searched sequence looks ahead."""
+    horizon: int = 1
+    """Actions a searched sequence looks ahead (1: each action valued by the estimated
+    actions to go from where it is predicted to end)."""
     beam: int = 8
     """Imagined states kept at each depth of the search."""
     stall: int = 4
