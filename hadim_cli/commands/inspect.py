@@ -272,16 +272,22 @@ def eval_cmd(
         "--exact", help="Replace a level of the chain by the scripted controller's exact one "
         "(a diagnostic, not stored): navigation (the robot's motion), push (an object "
         "pushed to a point) or tool (where the tool goes next); repeat to combine.")] = None,
+    controller: Annotated[str | None, typer.Option(
+        "--controller", help="Evaluate with this controller instead of the run's: rules or "
+        "search (a diagnostic, not stored).")] = None,
     store: StoreOption = None,
     as_json: JsonOption = False,
 ) -> None:
     """Evaluate a run's H on a task's target points and store the score."""
     from hadim_cli import runs
+    from hadim_cli.config import CONTROLLERS
     from hadim_cli.evaluation.tasks import load_task, load_task_file
     from hadim_cli.reports import render_eval
 
     if (task is None) == (points is None):
         raise HadimError("give exactly one of --task NAME or --points FILE")
+    if controller is not None and controller not in CONTROLLERS:
+        raise HadimError(f"--controller {controller}: unknown (known: {', '.join(CONTROLLERS)})")
     chosen = load_task(task) if task is not None else load_task_file(points)
     with runs.open_store(store, create=False, run=run) as st:
         record = runs.chosen_run(st, run)
@@ -289,13 +295,13 @@ def eval_cmd(
         if at is not None and at > record.iterations:
             raise HadimError(f"--at {at} is beyond run {run}'s {record.iterations} iterations")
         if runs.run_kind(record) is runs.RunKind.BASELINE:
-            if animate is not None or exact:
-                raise HadimError("--animate and --exact are diagnostics of the learner's "
-                                 f"planner; run {run} is a baseline run")
+            if animate is not None or exact or controller:
+                raise HadimError("--animate, --exact and --controller are diagnostics of the "
+                                 f"learner's controller; run {run} is a baseline run")
             result, session = _eval_baseline(st, record, chosen, at)
         else:
             result, session = _eval_learner(st, record, chosen, at, tuple(exact or ()),
-                                            animate is not None)
+                                            animate is not None, controller)
     if animate is not None:
         from hadim_cli.evaluation.animate import animate as draw
 
@@ -324,9 +330,13 @@ def _eval_baseline(st, record, chosen, at: int | None):
     return result, session
 
 
-def _eval_learner(st, record, chosen, at: int | None, exact: tuple[str, ...], animate: bool):
+def _eval_learner(st, record, chosen, at: int | None, exact: tuple[str, ...], animate: bool,
+                  controller: str | None):
     """The learner's H on `chosen`; the task is checked against the run's world first, so a
-    target it cannot reach is refused before the session is restored."""
+    target it cannot reach is refused before the session is restored. With `exact` levels or
+    another `controller` the score is a diagnostic, not stored."""
+    import dataclasses
+
     from hadim_cli import runs
     from hadim_cli.config import stored_config
     from hadim_cli.evaluation.tasks import check_task
@@ -336,9 +346,13 @@ def _eval_learner(st, record, chosen, at: int | None, exact: tuple[str, ...], an
     from hadim_cli.evaluation.runner import evaluate
 
     session = runs.restore_session(st, record, at)
+    other = controller not in (None, session.config.controller.kind)
+    if other:
+        session.learner.use_controller(dataclasses.replace(session.config.controller,
+                                                           kind=controller))
     with exact_levels(session.learner, session.config.world, exact):
         result = evaluate(session.learner, session.config.world, chosen, record=animate)
-    if not exact:  # a score with an exact level is a diagnostic, not the learner's
+    if not exact and not other:  # an exact level or another controller: a diagnostic
         st.add_evaluation(record.name, session.iteration, chosen.name, result.score,
                           result.to_dict()["points"])
     return result, session
