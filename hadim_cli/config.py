@@ -726,7 +726,7 @@ class ControllerConfig:
     actions to go from where it is predicted to end)."""
     beam: int = 8
     """Imagined states kept at each depth of the search."""
-    stall: int = 4
+    stall: int = 8
     """Actions a pursuit may go without a new low of its estimated actions to go."""
     clearance: float = 0.02
     """Gap (m) kept from a body no level of the chain moves (and the overlap allowed between
