@@ -421,8 +421,9 @@ def test_the_lock_is_kept_alive_through_a_long_step(runner, tmp_path, monkeypatc
     # Margins wide enough for a loaded CI machine: beats every timeout/4 = 0.5 s, one slow
     # step of 2.5 × timeout; the thief polls throughout.
     timeout = 2.0
-    monkeypatch.setattr(runs, "open_store", lambda option, create=True, writes=True: Store.open(
-        runs.store_location(option), create=create, lock_timeout=timeout))
+    monkeypatch.setattr(runs, "open_store", lambda option, create=True, writes=True, run=None:
+                        Store.open(runs.store_location(option), create=create,
+                                   lock_timeout=timeout))
     slept = []
 
     def slow_evaluation(session, tasks):
