@@ -71,6 +71,9 @@ class BaselineConfig:
     """Iterations between checkpoints (--checkpoint-every; default --eval-every, else 1000);
     evaluations also end a chunk."""
     eval_every: int = 1000
+    eval_at: tuple[int, ...] = ()
+    """Iterations evaluated at besides the multiples of `eval_every` (a log-spaced schedule,
+    `schedule.log_schedule`); each a multiple of `multiple`."""
     episode_length: int = 1000
     """Actions before an episode is truncated (the paper's 1000)."""
     n_envs: int = 1
@@ -150,7 +153,9 @@ def make_config(algorithm: str, task: str, reward: str, actions: str, horizon: i
 
 
 def read_config(stored: dict[str, Any]) -> BaselineConfig:
-    return BaselineConfig(**stored["baseline"])
+    values = dict(stored["baseline"])
+    values["eval_at"] = tuple(values.get("eval_at", ()))
+    return BaselineConfig(**values)
 
 
 def is_baseline(stored: dict[str, Any]) -> bool:

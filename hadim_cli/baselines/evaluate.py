@@ -62,4 +62,5 @@ def evaluate_policy(agent, cfg: BaselineConfig, task: Task) -> TaskResult:
         error = 1.0 if contact else point_error(start, final, np.asarray(point))
         results.append(PointResult(tuple(point), tuple(start.tolist()), tuple(final.tolist()),
                                    error, used, -1, contact, path, 0, deviation))
-    return TaskResult(task.name, task_score([r.error for r in results]), tuple(results))
+    return TaskResult(task.name, task_score([r.error for r in results]), tuple(results),
+                      budget=task.budget)
