@@ -213,8 +213,8 @@ def render_eval(console: Console, result: TaskResult, iteration: int) -> None:
             caption += f"; a push moved the object {100 * path / moves:.1f} cm"
         if pushed:
             caption += "\n" + first_push_summary([p.first_push for p in pushed])
-    table = Table(title=f"{result.task} at iteration {iteration}: score {result.score:.3f}",
-                  caption=caption)
+    table = Table(title=f"{result.task} at iteration {iteration}: score {result.score:.3f}, "
+                  f"{result.in_zone}/{len(points)} points in the goal zone", caption=caption)
     for col in ("#", "target", "start", "final", "error", "actions", "trips", "robot only",
                 "note"):
         table.add_column(col)

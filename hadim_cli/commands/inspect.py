@@ -224,10 +224,14 @@ def eval_cmd(
     exact: Annotated[list[str] | None, typer.Option(
         "--exact", help="Replace a level of the chain by an exact one (diagnostic, not "
         "stored): navigation.")] = None,
+    budget: Annotated[int | None, typer.Option(
+        "--budget", help="Actions per point instead of the task's own (1-10000; stored as "
+        "TASK@N, e.g. push-object@1000: the episode-success measure of docs/baselines.md)."
+    )] = None,
     store: StoreOption = None,
     as_json: JsonOption = False,
 ) -> None:
-    """Evaluate a run's H on a task's target points and store the score."""
+    """Evaluate a run (learner or baseline) on a task's target points and store the score."""
     from hadim_cli import runs
     from hadim_cli.evaluation.exact import exact_levels
     from hadim_cli.evaluation.runner import evaluate
@@ -236,7 +240,8 @@ def eval_cmd(
 
     if (task is None) == (points is None):
         raise HadimError("give exactly one of --task NAME or --points FILE")
-    chosen = load_task(task) if task is not None else load_task_file(points)
+    chosen = _with_budget(load_task(task) if task is not None else load_task_file(points),
+                          budget)
     with runs.open_store(store, create=False) as st:
         record = st.get_run(run)
         if at is not None and at > record.iterations:
@@ -276,6 +281,21 @@ def eval_cmd(
         render_eval(_console(), result, session.iteration)
         if animate is not None:
             typer.echo(f"wrote {animate}")
+
+
+def _with_budget(task, budget: int | None):
+    """`task` with another budget, named `TASK@N` so its scores never join the task's own."""
+    import dataclasses
+
+    from hadim_cli.evaluation.metric import check_budget, measure_name
+
+    if budget is None:
+        return task
+    try:
+        check_budget(budget)
+    except ValueError as exc:
+        raise HadimError(str(exc)) from None
+    return dataclasses.replace(task, budget=budget, name=measure_name(task.name, budget))
 
 
 @app.command()
