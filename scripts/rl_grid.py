@@ -25,7 +25,7 @@ def _log(message: str) -> None:
 
 
 def _status(store, entries) -> None:
-    from hadim_cli.baselines.grid import learned_at
+    from hadim_cli.baselines.grid import LearnerEntry, learned_at
 
     names = {r.name: r for r in store.list_runs()}
     for entry in entries:
@@ -33,7 +33,7 @@ def _status(store, entries) -> None:
         if record is None:
             print(f"{entry.run:42} not started")
             continue
-        at = learned_at(store, entry)
+        at = None if isinstance(entry, LearnerEntry) else learned_at(store, entry)
         state = f"learned at {at}" if at is not None else record.status
         print(f"{entry.run:42} {record.iterations:>8} / {entry.cap}  {state}")
 
@@ -47,12 +47,12 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--status", action="store_true", help="Print where each entry stands.")
     args = parser.parse_args(argv)
 
-    from hadim_cli.baselines.grid import claimed_entries, run_grid
+    from hadim_cli.baselines.grid import ordered_jobs, run_grid
     from hadim_cli.baselines.variants import Variant
     from store.api import Store
 
     variants = [Variant(v) for v in args.variant.split(",")]
-    entries = claimed_entries(variants, [int(s) for s in args.seeds.split(",")])
+    entries = ordered_jobs(variants, [int(s) for s in args.seeds.split(",")])
     stop = {"now": False}
 
     def handler(signum, frame):  # noqa: ARG001

@@ -15,6 +15,7 @@ from __future__ import annotations
 import dataclasses
 import time
 from collections.abc import Callable, Iterable
+from contextlib import contextmanager
 from dataclasses import dataclass
 
 from hadim_cli.baselines import runs as baseline_runs
@@ -82,9 +83,10 @@ def claimed_entries(variants: Iterable[Variant] = (Variant.PAPER,),
             for variant in variants for task, algo, reward in claims for seed in seeds]
 
 
-def grid_sweep(variant: Variant) -> str:
-    """The sweep name a variant's entries are claimed under (`hadim report NAME`)."""
-    return f"rl-grid-{variant.value}"
+def grid_sweep(variant: str) -> str:
+    """The sweep name a variant's entries are claimed under (`hadim report NAME`):
+    rl-grid-paper, rl-grid-fixed, rl-grid-learner."""
+    return f"rl-grid-{variant}"
 
 
 def config_of(entry: GridEntry, world: WorldConfig | None = None):
@@ -94,14 +96,14 @@ def config_of(entry: GridEntry, world: WorldConfig | None = None):
     return apply_variant(cfg, entry.variant)
 
 
-def claim(store, entries: list[GridEntry]) -> None:
-    """Record each variant's entries as a sweep (a new entry list needs a new variant name)."""
+def claim(store, entries: list) -> None:
+    """Record each variant's entries (and the learner's) as a sweep, `grid_sweep(variant)`."""
     for variant in dict.fromkeys(e.variant for e in entries):
-        mine = [e for e in entries if e.variant is variant]
+        mine = [e for e in entries if e.variant == variant]
         store.claim_sweep(grid_sweep(variant), {
             "format": SWEEP_FORMAT, "kind": "rl-grid",
-            "entries": [{"run": e.run, "label": e.label, "task": e.task, "seed": e.seed,
-                         "iterations": e.cap} for e in mine]})
+            "entries": [{"run": e.run, "label": e.label, "task": getattr(e, "task", "all"),
+                         "seed": e.seed, "iterations": e.cap} for e in mine]})
 
 
 def learned_at(store, entry: GridEntry) -> int | None:
@@ -117,11 +119,29 @@ def _exists(store, name: str) -> bool:
     return any(r.name == name for r in store.list_runs())
 
 
-def run_entry(store, entry: GridEntry, target: int, should_stop: Callable[[], bool],
-              log: Callable[[str], None]) -> str:
-    """Bring one entry to `target` iterations (or until it learns); what happened."""
+@contextmanager
+def _locked(store, run: str):
+    """The run's lock and heartbeat; its status `running` while held, then what the body
+    sets in the yielded dict (`failed` if it raised)."""
     from hadim_cli import runs
     from hadim_cli.heartbeat import keep_alive
+    from store.records import RunStatus
+
+    owner = runs.owner_id()
+    store.acquire_lock(run, owner)
+    store.set_status(run, RunStatus.RUNNING)
+    outcome = {"owner": owner, "status": RunStatus.FAILED}
+    try:
+        with keep_alive(store, run, owner):
+            yield outcome
+    finally:
+        store.set_status(run, outcome["status"])
+        store.release_lock(run, owner)
+
+
+def run_entry(store, entry: GridEntry, target: int, should_stop: Callable[[], bool],
+              log: Callable[[str], None]) -> str:
+    """Bring one baseline entry to `target` iterations (or until it learns)."""
     from store.records import RunStatus
 
     if _exists(store, entry.run):
@@ -135,41 +155,125 @@ def run_entry(store, entry: GridEntry, target: int, should_stop: Callable[[], bo
     began = time.monotonic()
     session = baseline_runs.restore(store, record)
     start = session.iteration
-    owner = runs.owner_id()
-    store.acquire_lock(entry.run, owner)
-    store.set_status(entry.run, RunStatus.RUNNING)
-    status = RunStatus.FAILED
-    try:
-        with keep_alive(store, entry.run, owner):
-            baseline_runs.train(
-                store, entry.run, session, target, eval_every=0, tasks=(entry.task,),
-                should_stop=lambda: should_stop() or learned_at(store, entry) is not None,
-                owner=owner)
+    with _locked(store, entry.run) as outcome:
+        baseline_runs.train(
+            store, entry.run, session, target, eval_every=0, tasks=(entry.task,),
+            should_stop=lambda: should_stop() or learned_at(store, entry) is not None,
+            owner=outcome["owner"])
         done = session.iteration >= entry.cap or learned_at(store, entry) is not None
-        status = RunStatus.FINISHED if done else RunStatus.PAUSED
-    finally:
-        store.set_status(entry.run, status)
-        store.release_lock(entry.run, owner)
+        outcome["status"] = RunStatus.FINISHED if done else RunStatus.PAUSED
     rate = (session.iteration - start) / max(time.monotonic() - began, 1e-9)
-    log(f"{entry.run}: {start} → {session.iteration} ({rate:.0f} it/s wall, with "
-        f"evaluations; {status.value})")
-    return "stopped" if should_stop() else status.value
+    return (f"{start} → {session.iteration} ({rate:.0f} it/s wall with evaluations; "
+            f"{outcome['status'].value})")
 
 
-def run_grid(store, entries: list[GridEntry], should_stop: Callable[[], bool],
+@dataclass(frozen=True)
+class LearnerEntry:
+    """The learner (default config) on the same axes: trained to `iterations`, evaluated on
+    every task with both measures at `LEARNER_SCHEDULE`."""
+
+    seed: int
+    iterations: int = 4000
+
+    @property
+    def run(self) -> str:
+        return f"g-learner-default-s{self.seed}"
+
+    label = "hadim (default)"
+    variant = "learner"
+
+    @property
+    def cap(self) -> int:
+        return self.iterations
+
+
+LEARNER_SCHEDULE = (100, 200, 500, 1000, 2000, 4000)
+TASKS = ("move-robot", "push-object", "push-with-tool")
+
+
+def learner_measures(session, store, run: str) -> None:
+    """Both measures of every task at the session's iteration (the episode one as
+    `TASK@1000`), unless already stored (a grid killed between training and evaluating)."""
+    from hadim_cli.evaluation.runner import evaluate
+    from hadim_cli.evaluation.tasks import load_task
+
+    it = session.iteration
+    done = {e.task for e in store.evaluations(run) if e.iteration == it}
+    for name in TASKS:
+        task = load_task(name)
+        for chosen in (task, dataclasses.replace(task, budget=EPISODE_ACTIONS,
+                                                 name=measure_name(name, EPISODE_ACTIONS))):
+            if chosen.name in done:
+                continue
+            result = evaluate(session.learner, session.config.world, chosen)
+            store.add_evaluation(run, it, chosen.name, result.score, result.to_dict()["points"])
+
+
+def run_learner(store, entry: LearnerEntry, target: int, should_stop: Callable[[], bool],
+                log: Callable[[str], None]) -> str:  # noqa: ARG001
+    from hadim_cli import runs
+    from hadim_cli.config import load_config
+    from store.records import RunStatus
+
+    if not _exists(store, entry.run):
+        runs.new_run(store, load_config(), entry.seed, entry.run)
+    record = store.get_run(entry.run)
+    points = [i for i in LEARNER_SCHEDULE if i <= target]
+    evaluated = {e.iteration for e in store.evaluations(entry.run)}
+    if record.iterations >= target and all(i in evaluated for i in points):
+        return f"at {record.iterations}"
+    session = runs.restore_session(store, record)
+    start = session.iteration
+    with _locked(store, entry.run) as outcome:
+        for point in points:
+            if session.iteration < point and not should_stop():
+                runs.train(store, entry.run, session, point, should_stop=should_stop,
+                           owner=outcome["owner"])
+            if session.iteration == point:
+                learner_measures(session, store, entry.run)
+        done = session.iteration >= entry.cap
+        outcome["status"] = RunStatus.FINISHED if done else RunStatus.PAUSED
+    return f"{start} → {session.iteration} ({outcome['status'].value})"
+
+
+Job = GridEntry | LearnerEntry
+
+
+def ordered_jobs(variants: Iterable[Variant], seeds: Iterable[int]) -> list[Job]:
+    """The grid's order within a stage: task by task, each algorithm and reward with its
+    variants side by side (paper, then fixed), seeds last; the learner's first seed after
+    move-robot's q-learning (cheap, and the figure's reference), its others after
+    move-robot."""
+    seeds = tuple(seeds)
+    variants = tuple(variants)
+    entries = claimed_entries(variants, seeds)
+    jobs: list[Job] = []
+    for task in TASKS:
+        mine = [e for e in entries if e.task == task]
+        kinds = dict.fromkeys((e.algorithm, e.reward) for e in mine)
+        for algorithm, reward in kinds:
+            jobs += [e for v in variants for e in mine
+                     if (e.algorithm, e.reward, e.variant) == (algorithm, reward, v)]
+            if task == "move-robot" and algorithm == "q-learning" and reward == "guided":
+                jobs.append(LearnerEntry(seeds[0]))
+        if task == "move-robot":
+            jobs += [LearnerEntry(seed) for seed in seeds[1:]]
+    return jobs
+
+
+def run_grid(store, jobs: list[Job], should_stop: Callable[[], bool],
              log: Callable[[str], None], stages: Iterable[int] = STAGES) -> None:
-    """Every entry to each stage's iterations in turn (capped), skipping what is done."""
+    """Every job to each stage's iterations in turn (capped), skipping what is done."""
     import torch
 
     torch.set_num_threads(1)
-    claim(store, entries)
+    claim(store, jobs)
     for stage in stages:
         log(f"stage {stage}")
-        for entry in entries:
+        for job in jobs:
             if should_stop():
                 log("stopping: every run is at its last checkpoint")
                 return
-            outcome = run_entry(store, entry, min(stage, entry.cap), should_stop, log)
-            log(f"{entry.run}: {outcome}")
+            drive = run_learner if isinstance(job, LearnerEntry) else run_entry
+            log(f"{job.run}: {drive(store, job, min(stage, job.cap), should_stop, log)}")
     log("grid done")
-
