@@ -83,6 +83,8 @@ class BaselineConfig:
     steps of every environment."""
     params: dict[str, Any] = field(default_factory=dict)
     world: dict[str, Any] = field(default_factory=dict)
+    variant: str = "paper"
+    """The protocol's variant (`variants.Variant`): the paper's, or the practitioner's fix."""
 
     def to_dict(self) -> dict[str, Any]:
         return {"kind": "baseline", "baseline": asdict(self)}

@@ -44,4 +44,4 @@ def apply_variant(cfg: BaselineConfig, variant: Variant) -> BaselineConfig:
         params.update(reward_scale=REWARD_SCALE, goal_frame=True)
     if algo is Algorithm.DQN:
         params["her"] = {**HER_PARAMS, "copy_info_dict": Reward(cfg.reward) is Reward.GUIDED}
-    return dataclasses.replace(cfg, params=params, horizon=FIXED_HORIZON)
+    return dataclasses.replace(cfg, params=params, horizon=FIXED_HORIZON, variant=variant.value)

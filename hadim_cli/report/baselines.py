@@ -29,7 +29,8 @@ def group_label(config: Mapping[str, Any], sweep_label: str) -> str:
     if config.get("kind") == "baseline":
         b = config["baseline"]
         actions = "" if b.get("actions", "discrete") == "discrete" else f", {b['actions']}"
-        return f"{b['algorithm']} ({b['reward']}{actions})"
+        variant = "" if b.get("variant", "paper") == "paper" else f", {b['variant']}"
+        return f"{b['algorithm']} ({b['reward']}{actions}{variant})"
     return f"hadim ({sweep_label})"
 
 
