@@ -84,17 +84,34 @@ class ValueScale:
     """Mean over states of max − min of the four actions' values."""
     possible: tuple[float, float]
     """The values +1000 / −5 (times the run's reward scale) and γ allow."""
+    return_mean: float
+    """Mean discounted return-to-go the agent actually got from those states (times the
+    reward scale): what its values should approach."""
 
 
-def value_scale(session, contexts: np.ndarray, rng: np.random.Generator,
+def returns_to_go(rewards: np.ndarray, ends: Sequence[int], gamma: float) -> np.ndarray:
+    """Discounted return from each iteration to its episode's end (`ends`: the iterations
+    that ended an episode; the last, unfinished episode is cut where the data ends)."""
+    out = np.zeros(len(rewards))
+    stops = set(ends)
+    acc = 0.0
+    for i in range(len(rewards) - 1, -1, -1):
+        acc = rewards[i] + (0.0 if i in stops else gamma * acc)
+        out[i] = acc
+    return out
+
+
+def value_scale(session, contexts: np.ndarray, returns: np.ndarray, rng: np.random.Generator,
                 n: int = 2000) -> ValueScale | None:
-    """Q(s, ·) of the run's agent on up to `n` stored states (None for A2C)."""
+    """Q(s, ·) of the run's agent on up to `n` stored states (None for A2C), beside the
+    returns `returns` (per stored state) the agent got from them."""
     from hadim_cli.baselines.agents import Algorithm
 
     algo = Algorithm(session.cfg.algorithm)
     if algo is Algorithm.A2C:
         return None
-    pick = contexts[rng.choice(len(contexts), size=min(n, len(contexts)), replace=False)]
+    chosen = rng.choice(len(contexts), size=min(n, len(contexts)), replace=False)
+    pick = contexts[chosen]
     env = session.agent.env
     values = []
     for row in pick:
@@ -115,7 +132,8 @@ def value_scale(session, contexts: np.ndarray, rng: np.random.Generator,
     greedy = v.max(axis=1)
     return ValueScale(len(v), float(greedy.mean()), float(greedy.min()), float(greedy.max()),
                       float((v.max(axis=1) - v.min(axis=1)).mean()),
-                      (-5 * scale / (1 - gamma), GOAL_REWARD * scale))
+                      (-5 * scale / (1 - gamma), GOAL_REWARD * scale),
+                      float(returns[chosen].mean() * scale))
 
 
 def _obs(env, row: np.ndarray) -> dict[str, np.ndarray]:
@@ -142,7 +160,10 @@ def diagnose(store, run: str, block: int = 10_000, seed: int = 0) -> dict[str, A
     goal = (0, 1) if session.agent.base.task.goal_entity == 0 else (4, 5)
     blocks = training_blocks(episodes, block, goal)
     contexts = np.concatenate([e.contexts for e in episodes])
-    scale = value_scale(session, contexts, np.random.default_rng(seed))
+    rewards = np.concatenate([np.asarray(e.extra["rewards"], float) for e in episodes])
+    ends = [e.first_iteration + i for e in episodes for i, _t, _u in e.extra["ends"]]
+    returns = returns_to_go(rewards, ends, float(session.cfg.params.get("gamma", 0.99)))
+    scale = value_scale(session, contexts, returns, np.random.default_rng(seed))
     out: dict[str, Any] = {"run": run, "iterations": record.iterations,
                            "blocks": [asdict(b) for b in blocks],
                            "value_scale": None if scale is None else asdict(scale)}

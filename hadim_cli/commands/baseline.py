@@ -121,7 +121,8 @@ def diagnose(
     if v is not None:
         typer.echo(f"values on {v['states']} stored states: greedy mean {v['greedy_mean']:.1f} "
                    f"(min {v['greedy_min']:.1f}, max {v['greedy_max']:.1f}); between the "
-                   f"actions {v['action_gap']:.2f}; possible {v['possible'][0]:.1f} … "
+                   f"actions {v['action_gap']:.2f}; the returns it got from them "
+                   f"{v['return_mean']:.1f}; possible {v['possible'][0]:.1f} … "
                    f"{v['possible'][1]:.1f}")
     if "table_states" in found:
         typer.echo(f"table: {found['table_states']} states visited")
