@@ -119,10 +119,10 @@ def diagnose(
                    f"{b['robot_coverage']:>11.0%} {b['goal_entity_coverage']:>12.0%}")
     v = found["value_scale"]
     if v is not None:
-        typer.echo(f"values on {v['states']} stored states: greedy mean {v['greedy_mean']:.1f} "
-                   f"(min {v['greedy_min']:.1f}, max {v['greedy_max']:.1f}); between the "
-                   f"actions {v['action_gap']:.2f}; the returns it got from them "
-                   f"{v['return_mean']:.1f}; possible {v['possible'][0]:.1f} … "
-                   f"{v['possible'][1]:.1f}")
+        typer.echo(f"values on {v['states']} stored states: greedy mean {v['greedy_mean']:.3g} "
+                   f"(min {v['greedy_min']:.3g}, max {v['greedy_max']:.3g}); between the "
+                   f"actions {v['action_gap']:.3g}; the returns it got from them "
+                   f"{v['return_mean']:.3g}; possible {v['possible'][0]:.3g} … "
+                   f"{v['possible'][1]:.3g}")
     if "table_states" in found:
         typer.echo(f"table: {found['table_states']} states visited")
