@@ -127,7 +127,7 @@ def test_evaluating_never_changes_training(tmp_path):
             session = _session("dqn", task="push-with-tool", eval_every=40)
             baseline_runs.new_run(st, session.cfg, 3, name)
             baseline_runs.train(st, name, session, 120, eval_every=40, tasks=tasks)
-        assert len(st.evaluations("evaluated")) == 3
+        assert len(st.evaluations("evaluated")) == 3 * 2  # both measures
         assert_same_state(st.checkpoint("quiet"), st.checkpoint("evaluated"))
 
 
