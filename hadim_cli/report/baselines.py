@@ -31,7 +31,7 @@ def group_label(config: Mapping[str, Any], sweep_label: str) -> str:
         actions = "" if b.get("actions", "discrete") == "discrete" else f", {b['actions']}"
         variant = "" if b.get("variant", "paper") == "paper" else f", {b['variant']}"
         return f"{b['algorithm']} ({b['reward']}{actions}{variant})"
-    return f"hadim ({sweep_label})"
+    return sweep_label if sweep_label.startswith("hadim") else f"hadim ({sweep_label})"
 
 
 def paper_claim(label: str, task: str) -> str:

@@ -38,6 +38,10 @@ class RunCurve:
     actions: tuple[int, ...]
     trained: int
     """The run's iterations (it may have trained past its last evaluation)."""
+    carries: bool = True
+    """Whether its last value stands for later iterations once it has learned (a baseline of
+    the grid, stopped when it learned); not for the learner's runs, which stop at their
+    length."""
 
     @property
     def learned_at(self) -> int | None:
@@ -51,7 +55,7 @@ class RunCurve:
         if not before:
             return None
         i = before[-1]
-        if self.iterations[i] < iteration and self.learned_at is None:
+        if self.iterations[i] < iteration and (self.learned_at is None or not self.carries):
             return None
         return self.scores[i], self.successes[i]
 
@@ -64,7 +68,7 @@ def episode_budget(config: Mapping[str, Any]) -> int:
 
 
 def run_curve(name: str, evaluations: Sequence, task: str, budget: int,
-              trained: int) -> RunCurve | None:
+              trained: int, carries: bool = True) -> RunCurve | None:
     """The run's two measures on `task` at the iterations that have both (None if none)."""
     score = {e.iteration: e.score for e in evaluations if e.task == task}
     episode = {e.iteration: e for e in evaluations if e.task == measure_name(task, budget)}
@@ -74,7 +78,7 @@ def run_curve(name: str, evaluations: Sequence, task: str, budget: int,
     return RunCurve(name, tuple(its), tuple(score[i] for i in its),
                     tuple(zone_share(episode[i].points) for i in its),
                     tuple(sum(p.get("actions", 0) for p in episode[i].points) for i in its),
-                    trained)
+                    trained, carries)
 
 
 def group_curves(store, groups: Mapping[str, Sequence[str]]) -> dict[str, dict[str, list]]:
@@ -86,7 +90,7 @@ def group_curves(store, groups: Mapping[str, Sequence[str]]) -> dict[str, dict[s
             evaluations = store.evaluations(name)
             for task in TASKS:
                 c = run_curve(name, evaluations, task, episode_budget(record.config),
-                              record.iterations)
+                              record.iterations, record.config.get("kind") == "baseline")
                 if c is not None:
                     out.setdefault(task, {}).setdefault(label, []).append(c)
     return out
@@ -164,7 +168,9 @@ def measures_figure(curves: Mapping[str, Mapping[str, Sequence[RunCurve]]], out:
     fig, axes = plt.subplots(1, max(1, len(tasks)), figsize=(5.5 * max(1, len(tasks)), 4.2),
                              squeeze=False)
     labels = sorted({label for by in curves.values() for label in by})
-    colours = {label: plt.cm.tab20(i % 20) for i, label in enumerate(labels)}
+    # paper and fixed of one algorithm in a pair of shades (tab20); the learner in black
+    colours = {label: "black" if label.startswith("hadim") else plt.cm.tab20(i % 20)
+               for i, label in enumerate(labels)}
     for ax, task in zip(axes[0], tasks, strict=False):
         for label, mine in sorted(curves[task].items()):
             for which, style in (("score", "-"), ("success", "--")):
