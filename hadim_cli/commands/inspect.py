@@ -224,6 +224,9 @@ def eval_cmd(
     exact: Annotated[list[str] | None, typer.Option(
         "--exact", help="Replace a level of the chain by an exact one (diagnostic, not "
         "stored): navigation.")] = None,
+    controller: Annotated[str | None, typer.Option(
+        "--controller", help="Evaluate with this controller instead of the run's: rules or "
+        "search (a diagnostic, not stored).")] = None,
     budget: Annotated[int | None, typer.Option(
         "--budget", help="Actions per point instead of the task's own (1-10000; stored as "
         "TASK@N, e.g. push-object@1000: the episode-success measure of docs/baselines.md)."
@@ -232,7 +235,10 @@ def eval_cmd(
     as_json: JsonOption = False,
 ) -> None:
     """Evaluate a run (learner or baseline) on a task's target points and store the score."""
+    import dataclasses
+
     from hadim_cli import runs
+    from hadim_cli.config import CONTROLLERS
     from hadim_cli.evaluation.exact import exact_levels
     from hadim_cli.evaluation.runner import evaluate
     from hadim_cli.evaluation.tasks import load_task, load_task_file
@@ -240,6 +246,8 @@ def eval_cmd(
 
     if (task is None) == (points is None):
         raise HadimError("give exactly one of --task NAME or --points FILE")
+    if controller is not None and controller not in CONTROLLERS:
+        raise HadimError(f"--controller {controller}: unknown (known: {', '.join(CONTROLLERS)})")
     chosen = _with_budget(load_task(task) if task is not None else load_task_file(points),
                           budget)
     with runs.open_store(store, create=False) as st:
@@ -250,9 +258,9 @@ def eval_cmd(
             from hadim_cli.baselines import runs as baseline_runs
             from hadim_cli.baselines.evaluate import check_fits
 
-            if animate is not None or exact:
-                raise HadimError("--animate and --exact are diagnostics of the learner's "
-                                 f"planner; run {run} is a baseline run")
+            if animate is not None or exact or controller:
+                raise HadimError("--animate, --exact and --controller are diagnostics of the "
+                                 f"learner's controller; run {run} is a baseline run")
             check_fits(baseline_runs.read_config(record.config), chosen)
             session = baseline_runs.restore(st, record, at)
             result = session.evaluate(chosen)
@@ -260,11 +268,15 @@ def eval_cmd(
                               result.to_dict()["points"])
         else:
             session = runs.restore_session(st, record, at)
+            other = controller not in (None, session.config.controller.kind)
+            if other:
+                session.learner.use_controller(dataclasses.replace(
+                    session.config.controller, kind=controller))
             with exact_levels(session.learner, session.config.world, tuple(exact or ())):
                 result = evaluate(session.learner, session.config.world, chosen,
                                   record=animate is not None)
-            if not exact:
-                # A score with an exact level is a diagnostic, not the learner's.
+            if not exact and not other:
+                # A score with an exact level or another controller is a diagnostic.
                 st.add_evaluation(run, session.iteration, chosen.name, result.score,
                                   result.to_dict()["points"])
     if animate is not None:
