@@ -218,3 +218,19 @@ def test_training_blocks_count_episodes_the_goal_zone_and_coverage():
     assert [(b.episodes, b.reached) for b in blocks] == [(1, 1), (1, 0)]
     assert blocks[0].mean_return == 990 and blocks[1].mean_length == 5
     assert blocks[0].robot_coverage == pytest.approx(1 / 400)
+
+
+def test_diagnose_a_stored_run(tmp_path):
+    import json
+
+    store = tmp_path / "s.sqlite"
+    _baseline_run(store, total=80, eval_at=())
+    out = invoke("baseline", "diagnose", "b", "--block", 40, "--store", store, "--json")
+    assert out.exit_code == 0, out.stderr
+    found = json.loads(out.stdout)
+    assert [b["start"] for b in found["blocks"]] == [0, 40]
+    assert sum(b["episodes"] for b in found["blocks"]) >= 2  # 30-action episodes
+    assert found["value_scale"]["possible"] == pytest.approx([-500.0, 1000.0])
+    assert found["table_states"] > 0
+    text = invoke("baseline", "diagnose", "b", "--store", store)
+    assert text.exit_code == 0 and "values on" in text.stdout
