@@ -49,7 +49,7 @@ def main(argv: list[str] | None = None) -> int:
 
     from hadim_cli.baselines.grid import ordered_jobs, run_grid
     from hadim_cli.baselines.variants import Variant
-    from store.api import Store
+    from hadim_store.api import Store
 
     variants = [Variant(v) for v in args.variant.split(",")]
     entries = ordered_jobs(variants, [int(s) for s in args.seeds.split(",")])

@@ -125,7 +125,7 @@ def _locked(store, run: str):
     sets in the yielded dict (`failed` if it raised)."""
     from hadim_cli import runs
     from hadim_cli.heartbeat import keep_alive
-    from store.records import RunStatus
+    from hadim_store.records import RunStatus
 
     owner = runs.owner_id()
     store.acquire_lock(run, owner)
@@ -142,7 +142,7 @@ def _locked(store, run: str):
 def run_entry(store, entry: GridEntry, target: int, should_stop: Callable[[], bool],
               log: Callable[[str], None]) -> str:
     """Bring one baseline entry to `target` iterations (or until it learns)."""
-    from store.records import RunStatus
+    from hadim_store.records import RunStatus
 
     if _exists(store, entry.run):
         record = store.get_run(entry.run)
@@ -213,7 +213,7 @@ def run_learner(store, entry: LearnerEntry, target: int, should_stop: Callable[[
                 log: Callable[[str], None]) -> str:  # noqa: ARG001
     from hadim_cli import runs
     from hadim_cli.config import load_config
-    from store.records import RunStatus
+    from hadim_store.records import RunStatus
 
     if not _exists(store, entry.run):
         runs.new_run(store, load_config(), entry.seed, entry.run)

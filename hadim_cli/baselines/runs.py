@@ -29,9 +29,9 @@ from hadim_cli.errors import HadimError
 from hadim_cli.evaluation.metric import measure_name
 from hadim_cli.evaluation.runner import TaskResult
 from hadim_cli.evaluation.tasks import Task, load_task
-from hadim_cli.runs import Progress, package_versions
-from store.api import Store
-from store.records import EpisodeWrite, RunRecord
+from hadim_cli.runs import TARGET_KEY, Progress, package_versions
+from hadim_store.api import Store
+from hadim_store.records import EpisodeWrite, RunRecord
 
 STATE_FORMAT = 1
 
@@ -170,6 +170,7 @@ def train(store: Store | None, run: str | None, session: BaselineSession, total:
             n = min(n, due - it)
         write = session.run_chunk(n)
         if store is not None and run is not None:
+            write = dataclasses.replace(write, extra={**write.extra, TARGET_KEY: total})
             store.write_episode(run, write, owner=owner)
         it = session.iteration
         if it == due:

@@ -354,15 +354,16 @@ class Controller:
         return after, self._allowed(before, after, plan.levels)
 
     def _reaches(self, arr: np.ndarray, lv: Level, x: np.ndarray) -> np.ndarray:
-        """Whether the mover of `lv`, moved by `x` from where it is in `arr`, comes into
-        contact with the body it moves on the way: only then can it move it (the support
-        gate: the model's rows from further are pushes through a third body)."""
+        """Whether the mover of `lv`, moved by `x` from where it is in `arr`, would overlap
+        the body it moves on the way (by more than `zero_eps`): only then does it push it (a
+        move along its rim slides by; the model's rows from further are pushes through a
+        third body)."""
         pos, radii = self._bodies(arr)
         start, centre = pos[:, lv.mover], pos[:, lv.moved]
         length2 = np.maximum(np.sum(x * x, 1), 1e-12)
         s = np.clip(np.sum((centre - start) * x, 1) / length2, 0.0, 1.0)
         nearest = np.linalg.norm(start + s[:, None] * x - centre, axis=1)
-        touch = radii[:, lv.mover] + radii[:, lv.moved] + self.config.zero_eps
+        touch = radii[:, lv.mover] + radii[:, lv.moved] - self.config.zero_eps
         return (nearest <= touch) & ~split_zero(x, self.config.zero_eps)
 
     def _write(self, arr: np.ndarray, entity: int, prop: Property, change: np.ndarray) -> None:

@@ -29,8 +29,8 @@ from hadim_cli.evaluation.metric import (
     zone_share,
 )
 from hadim_cli.report.measures import claims_table, run_curve
-from store.api import Store
-from store.records import Evaluation
+from hadim_store.api import Store
+from hadim_store.records import Evaluation
 
 
 def invoke(*args: object):
