@@ -11,6 +11,7 @@ from hadim_cli.learner.competence import (
     held_out_errors,
     model_competence,
     normalised_errors,
+    range_scale,
     split_zero,
 )
 from hadim_cli.learner.interest import learning_progress
@@ -140,3 +141,17 @@ def test_held_out_errors_leave_each_row_out_of_its_own_fit() -> None:
     assert e["max"] == pytest.approx(1.0, abs=0.05)
     assert e["p50"] < 0.05
     assert held_out_errors(LocalLinearModel(1, 1)) is None
+
+
+def test_the_range_of_a_space_is_twice_a_high_quantile_of_its_moves():
+    """`range_scale`, the length competence divides errors by: the width of the space's
+    range, i.e. twice the 95th percentile of the norms of the outcomes that moved (a move in
+    any direction spans the diameter); the rows where nothing moved do not count."""
+    norms = np.arange(1, 101, dtype=np.float64) / 100   # 0.01 … 1.00
+    angles = np.linspace(0, 2 * np.pi, norms.size, endpoint=False)
+    y = np.c_[norms * np.cos(angles), norms * np.sin(angles)]
+    y = np.concatenate([y, np.zeros((300, 2))])          # many rows where nothing moved
+    assert range_scale(y, EPS) == pytest.approx(2 * np.quantile(norms, 0.95))
+    assert range_scale(y, EPS, quantile=0.5) == pytest.approx(2 * np.median(norms))
+    assert range_scale(y, 0.5) == pytest.approx(2 * np.quantile(norms[norms > 0.5], 0.95))
+    assert range_scale(np.zeros((5, 2)), EPS) == 1.0    # nothing moved: unit scale
