@@ -4,7 +4,13 @@ import numpy as np
 import pytest
 
 from hadim_cli.errors import HadimError
-from hadim_cli.evaluation.metric import distance_error, point_error, remaining_share, task_score
+from hadim_cli.evaluation.metric import (
+    distance_error,
+    heading_error,
+    point_error,
+    remaining_share,
+    task_score,
+)
 from hadim_cli.evaluation.tasks import load_task, load_task_file, task_names
 
 
@@ -174,3 +180,23 @@ def test_each_point_is_scored_by_the_share_of_its_distance_left_and_the_task_by_
         errors.append(expected)
     assert 0.0 < errors[0] < 0.9 and errors[1] == 1.0 and 0.0 < errors[2] < 1.0
     assert result.score == pytest.approx(1.0 - np.mean(errors), abs=1e-12)
+
+
+def test_a_heading_is_scored_by_the_share_of_its_angle_left_the_short_way_round():
+    """`heading_error` (pose tasks): min(1, final / initial angle to the wanted heading),
+    each angle the short way round (turning past ±π is no detour); a heading wanted from the
+    start scores 0 while kept within 0.05 rad, 1 once left further."""
+    assert heading_error(0.0, 0.0, np.pi / 2) == 1.0                      # did not turn
+    assert heading_error(0.0, np.pi / 2, np.pi / 2) == 0.0                # turned all the way
+    assert heading_error(0.0, np.pi / 4, np.pi / 2) == pytest.approx(0.5)
+    assert heading_error(0.0, -np.pi / 2, np.pi / 2) == 1.0               # worse is capped
+    # Across ±π: from 3 rad to −3 rad is 0.28 rad, not 6.
+    assert heading_error(3.0, -3.1, -3.0) == pytest.approx(0.1 / (2 * np.pi - 6.0))
+    assert heading_error(-3.0, 3.0 + 2 * np.pi, 3.0) == 0.0
+    assert heading_error(1.0, 1.5, 1.0 + 4 * np.pi) == pytest.approx(1.0)
+    # Wanted from the start: kept within 0.05 rad, else lost.
+    assert heading_error(0.3, 0.33, 0.3) == 0.0
+    assert heading_error(0.3, 0.3 - 0.0499, 0.3) == 0.0
+    assert heading_error(0.3, 0.3 + 0.051, 0.3) == 1.0
+    assert heading_error(0.3, 0.3 - 0.2, 0.3) == 1.0
+    assert heading_error(0.3, 0.3 + 2.0, 0.3) == 1.0

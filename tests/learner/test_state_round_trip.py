@@ -25,14 +25,21 @@ from hadim_cli.learner.state import learner_state, restore_learner
 
 IGNORED: dict[str, str] = {}
 """Attribute paths allowed to differ after a restore, with the reason. Empty: none may."""
+CACHES = {"_scale_cache", "_answers", "_answered_at", "buffer", "buffer_tree", "_candidates"}
+"""What a model fills when asked and rebuilds on demand (its scales, its last inverse
+answers, the normalised rows an index has not yet built into its tree) or a fitter keeps to
+extend rather than read again (`Fitter.all_candidates`): a learner that was used has them,
+its restored copy not yet (`assert_same(..., ignore=CACHES)`)."""
 BUFFERS = {"_data", "_room", "_actions", "_contexts", "_outcomes"}
 """Arrays grown by doubling: rows past their owner's `n` (or `len`) are spare capacity."""
 
 
-def assert_same(a: Any, b: Any, path: str = "learner", seen: set | None = None) -> int:
-    """Walk `a` and `b` together and fail at the first difference; returns fields compared."""
+def assert_same(a: Any, b: Any, path: str = "learner", seen: set | None = None,
+                ignore: frozenset[str] | set[str] = frozenset()) -> int:
+    """Walk `a` and `b` together and fail at the first difference; returns fields compared.
+    `ignore`: attribute names not compared (e.g. `CACHES`)."""
     seen = set() if seen is None else seen
-    if path in IGNORED:
+    if path in IGNORED or path.rpartition(".")[2] in ignore:
         return 0
     if isinstance(a, np.ndarray):
         assert isinstance(b, np.ndarray) and a.shape == b.shape, path
@@ -44,9 +51,10 @@ def assert_same(a: Any, b: Any, path: str = "learner", seen: set | None = None) 
     if isinstance(a, cKDTree):  # a neighbour index: the points and parameters it was built on
         assert isinstance(b, cKDTree), path
         return assert_same((a.data, a.leafsize, a.n, a.m), (b.data, b.leafsize, b.n, b.m),
-                           path, seen)
+                           path, seen, ignore)
     if isinstance(a, torch.nn.Module | torch.optim.Optimizer):
-        return assert_same(_tensors(a.state_dict()), _tensors(b.state_dict()), path, seen)
+        return assert_same(_tensors(a.state_dict()), _tensors(b.state_dict()), path, seen,
+                           ignore)
     assert type(a) is type(b), f"{path}: {type(a)} vs {type(b)}"
     if isinstance(a, float):
         assert a == b or (np.isnan(a) and np.isnan(b)), f"{path}: {a} vs {b}"
@@ -57,10 +65,10 @@ def assert_same(a: Any, b: Any, path: str = "learner", seen: set | None = None) 
     if isinstance(a, dict):
         assert a.keys() == b.keys(), f"{path}: keys {sorted(map(str, a))} vs " \
                                      f"{sorted(map(str, b))}"
-        return sum(assert_same(a[k], b[k], f"{path}[{k!r}]", seen) for k in a)
+        return sum(assert_same(a[k], b[k], f"{path}[{k!r}]", seen, ignore) for k in a)
     if isinstance(a, list | tuple):
         assert len(a) == len(b), f"{path}: length {len(a)} vs {len(b)}"
-        return sum(assert_same(x, y, f"{path}[{i}]", seen)
+        return sum(assert_same(x, y, f"{path}[{i}]", seen, ignore)
                    for i, (x, y) in enumerate(zip(a, b, strict=True)))
     if id(a) in seen:
         return 0
@@ -70,7 +78,7 @@ def assert_same(a: Any, b: Any, path: str = "learner", seen: set | None = None) 
     for k in BUFFERS & fa.keys():
         n = a.n if hasattr(a, "n") else len(a)
         fa[k], fb[k] = fa[k][:n], fb[k][:n]
-    return sum(assert_same(v, fb[k], f"{path}.{k}", seen) for k, v in fa.items())
+    return sum(assert_same(v, fb[k], f"{path}.{k}", seen, ignore) for k, v in fa.items())
 
 
 def _fields(obj: Any) -> dict[str, Any]:
