@@ -3,6 +3,7 @@
     python scripts/mutation.py evaluation/metric.py learner/competence.py   # run, then summarise
     python scripts/mutation.py --report                                     # summarise only
     python scripts/mutation.py --show learner/competence.py                 # each survivor's diff
+    python scripts/mutation.py --sample 200 learner/models.py               # 200 drawn mutants
 
 mutmut (configured in pyproject.toml, `[tool.mutmut]`) copies the sources into `mutants/`,
 writes every mutant of the configured modules there, records once which of the selected tests
@@ -24,6 +25,7 @@ from __future__ import annotations
 import argparse
 import json
 import os
+import random
 import re
 import subprocess
 import sys
@@ -145,18 +147,26 @@ def print_table(paths: list[str]) -> None:
         print(" | ".join(cells))
 
 
-def to_run(path: str) -> list[str]:
-    """The mutant names (or the module's glob) a run of `path` must try."""
+def to_run(path: str, sample: int | None = None) -> list[str]:
+    """The mutant names (or the module's glob) a run of `path` must try: with `sample`, at
+    most that many of the mutants never checked (a fixed draw, the same at every call) and
+    every mutant checked but not killed."""
     codes = results(path)
-    if codes is None or stale(path):
+    if codes is None or (stale(path) and sample is None):
         return [dotted(path) + ".*"]
     same = equivalents()
-    return sorted(n for n, c in codes.items() if STATUS.get(c) != "killed" and n not in same)
+    todo = sorted(n for n, c in codes.items() if STATUS.get(c) != "killed" and n not in same)
+    if sample is None:
+        return todo
+    unchecked = sorted(n for n in todo if codes[n] is None)
+    rng = random.Random(f"{path}:{sample}")
+    drawn = set(rng.sample(unchecked, min(sample, len(unchecked))))
+    return [n for n in todo if codes[n] is not None or n in drawn]
 
 
-def run(paths: list[str], workers: int) -> int:
+def run(paths: list[str], workers: int, sample: int | None = None) -> int:
     for path in paths:
-        names = to_run(path)
+        names = to_run(path, sample)
         if not names:
             print(f"{path}: every mutant killed or equivalent; nothing to run")
             continue
@@ -188,6 +198,9 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--report", action="store_true", help="summarise the last results only")
     parser.add_argument("--show", action="store_true", help="print each survivor's diff")
     parser.add_argument("--workers", type=int, default=1, help="mutmut's --max-children")
+    parser.add_argument("--sample", type=int, metavar="N",
+                        help="try at most N of the module's mutants not yet checked (a fixed "
+                        "draw; for a first estimate of a large module)")
     parser.add_argument("--fresh-stats", action="store_true",
                         help="forget which tests reach which function (recorded again)")
     args = parser.parse_args(argv)
@@ -208,7 +221,7 @@ def main(argv: list[str] | None = None) -> int:
             return 2
         if args.fresh_stats:
             (MUTANTS / "mutmut-stats.json").unlink(missing_ok=True)
-        code = run(paths, args.workers)
+        code = run(paths, args.workers, args.sample)
         if code:
             return code
     print_table(paths)

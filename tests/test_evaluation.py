@@ -24,7 +24,7 @@ def test_metric():
     assert point_error((1, 0), (1.2, 0), (1, 0)) == 1.0
     assert task_score([1.0, 1.0]) == 0.0
     assert task_score([0.0, 0.0]) == 1.0
-    with pytest.raises(ValueError):
+    with pytest.raises(ValueError, match="^a task needs at least one point$"):
         task_score([])
 
 
@@ -131,6 +131,8 @@ def test_the_remaining_share_is_the_error_so_far_unclipped():
     assert remaining_share((0.5, 0), (0, 0), (1, 0)) == pytest.approx(0.5)
     assert remaining_share((1, 0.25), (0, 0), (1, 0)) == pytest.approx(0.25)
     assert remaining_share((-1, 0), (0, 0), (1, 0)) == pytest.approx(2.0)  # pushed away
+    assert remaining_share((1, 1), (1, 3), (1, 0)) == pytest.approx(1 / 3)   # a share of 3 m
+    assert remaining_share((0, 0), (0.2, 0), (0.2, 0.1)) == pytest.approx(np.hypot(0.2, 0.1) / 0.1)
 
 
 def test_each_point_is_scored_by_the_share_of_its_distance_left_and_the_task_by_their_mean():

@@ -141,6 +141,13 @@ def test_held_out_errors_leave_each_row_out_of_its_own_fit() -> None:
     assert e["max"] == pytest.approx(1.0, abs=0.05)
     assert e["p50"] < 0.05
     assert held_out_errors(LocalLinearModel(1, 1)) is None
+    one = LocalLinearModel(1, 1)
+    one.add(np.array([[0.0]]), None, np.array([[1.0]]))
+    assert held_out_errors(one) is None
+    two = LocalLinearModel(1, 1)  # from two rows on: each predicted from the other
+    two.add(np.array([[0.0], [1.0]]), None, np.array([[1.0], [3.0]]))
+    assert held_out_errors(two) == pytest.approx({"p50": 2.0, "p90": 2.0, "p99": 2.0,
+                                                  "max": 2.0})
 
 
 def test_the_range_of_a_space_is_twice_a_high_quantile_of_its_moves():
