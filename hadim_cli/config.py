@@ -706,6 +706,53 @@ class EvaluationConfig:
         _check(self.every >= 0, "evaluation.every", "must be >= 0 (0 disables)", self.every)
 
 
+CONTROLLERS = ("rules", "search")
+"""The controllers that turn goals into primitive actions (`ControllerConfig.kind`)."""
+
+
+@dataclass(frozen=True)
+class ControllerConfig:
+    """Which controller turns goals into primitive actions, and the search controller's
+    constants (hadim_cli/learner/controller.py, docs/algorithm.md "The search controller")."""
+
+    kind: str = "rules"
+    """"rules": the planner of docs/algorithm.md, the default; "search": one receding-horizon
+    search over the chain's forward models (it does not yet reach the planner's scores on the
+    tool task: docs/results.md)."""
+    commands: int = 9
+    """Primitive actions the search tries: an n × n grid over the action space."""
+    horizon: int = 2
+    """Actions a searched sequence looks ahead."""
+    beam: int = 8
+    """Imagined states kept at each depth of the search."""
+    stall: int = 4
+    """Actions a pursuit may go without a new low of its estimated actions to go."""
+    clearance: float = 0.02
+    """Gap (m) kept from a body no level of the chain moves (and the overlap allowed between
+    bodies a level moves, for the models' error)."""
+    step_quantile: float = 0.9
+    """An affordance's step: this quantile of its non-null outcomes' norms."""
+    context_support: float = 0.1
+    """Relations further apart than this (in their model's scale) vote apart when choosing
+    where an affordance acts from."""
+    agreement: float = 0.4
+    """Rows within this (in their model's scale) of the densest relation fit the place."""
+
+    def validate(self) -> None:
+        _check(self.kind in CONTROLLERS, "controller.kind",
+               f"must be one of {', '.join(CONTROLLERS)}", self.kind)
+        for name in ("commands", "horizon", "beam", "stall"):
+            _check(getattr(self, name) >= 1, f"controller.{name}", "must be >= 1",
+                   getattr(self, name))
+        _check(self.commands >= 2, "controller.commands", "must be >= 2", self.commands)
+        _check(0.0 < self.step_quantile <= 1.0, "controller.step_quantile",
+               "must be in (0, 1]", self.step_quantile)
+        for name in ("context_support", "agreement"):
+            _check(getattr(self, name) > 0, f"controller.{name}", "must be > 0",
+                   getattr(self, name))
+        _check(self.clearance >= 0, "controller.clearance", "must be >= 0", self.clearance)
+
+
 @dataclass(frozen=True)
 class Config:
     """The whole resolved configuration of a run."""
@@ -716,6 +763,8 @@ class Config:
     """The affordance learner."""
     planner: PlannerConfig = field(default_factory=PlannerConfig)
     """The planner that chains affordances to reach goals."""
+    controller: ControllerConfig = field(default_factory=ControllerConfig)
+    """Which controller turns goals into actions (the planner's rules, or the search)."""
     evaluation: EvaluationConfig = field(default_factory=EvaluationConfig)
     """Periodic evaluation."""
 

@@ -8,6 +8,8 @@ import numpy as np
 from rich.console import Console
 from rich.table import Table
 
+from hadim_cli.learner.competence import split_zero
+
 if TYPE_CHECKING:  # the learner (and torch) only where H is rendered from a checkpoint
     from hadim_cli.evaluation.runner import FirstPush, TaskResult
     from hadim_cli.session import Session
@@ -47,7 +49,8 @@ def affordance_rows(session: Session) -> list[dict[str, Any]]:
                         for e, a in zip(entities, ok, strict=True) if a]
         frame = (aff.contexts[aff.model.frame.axis].name
                  if isinstance(aff.model, FramedModel) else None)
-        moved = learner.planner.effect(aff.model.data()[2]) if aff.model.n else np.zeros(0)
+        moved = (~split_zero(aff.model.data()[2], learner.config.zero_eps) if aff.model.n
+                 else np.zeros(0))
         rows.append({
             "id": aff.id, "input": aff.input.name, "output": aff.output.name,
             "context": [c.name for c in aff.contexts], "frame": frame,

@@ -94,7 +94,7 @@ def test_a_tool_task_fails_every_point_the_robot_touches_the_target_in():
     from hadim_cli.config import load_config
     from hadim_cli.evaluation.runner import evaluate
     from hadim_cli.learner.explorer import Learner
-    from hadim_cli.learner.planner import Attempt
+    from hadim_cli.learner.goals import Attempt
     from hadim_cli.learner.spaces import Rows, parse_space
     from hadim_cli.world.world import World
 

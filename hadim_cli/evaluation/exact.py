@@ -26,9 +26,10 @@ import numpy as np
 
 from hadim_cli.config import WorldConfig
 from hadim_cli.errors import HadimError
+from hadim_cli.learner.controller import Controller
 from hadim_cli.learner.explorer import Learner
+from hadim_cli.learner.goals import Actuator, Binding
 from hadim_cli.learner.navigation import ROBOT_HEADING, Navigator
-from hadim_cli.learner.planner import Actuator, Binding
 from hadim_cli.learner.spaces import SpaceReader
 
 LEVELS = ("navigation", "push", "tool")
@@ -113,6 +114,10 @@ def exact_levels(learner: Learner, world: WorldConfig, levels: tuple[str, ...]
     if unknown:
         raise HadimError(f"--exact: unknown level '{unknown[0]}' (known: {', '.join(LEVELS)})")
     planner = learner.planner
+    if isinstance(planner, Controller):
+        with _exact_search(planner, learner, world, levels):
+            yield
+        return
     saved = planner.pc, planner.navigator, planner.pusher, planner.tool_guide
     try:
         if "navigation" in levels:
@@ -126,3 +131,32 @@ def exact_levels(learner: Learner, world: WorldConfig, levels: tuple[str, ...]
         yield
     finally:
         planner.pc, planner.navigator, planner.pusher, planner.tool_guide = saved
+
+
+@contextlib.contextmanager
+def _exact_search(controller: Controller, learner: Learner, world: WorldConfig,
+                  levels: tuple[str, ...]) -> Iterator[None]:
+    """The search controller's exact levels: `navigation` predicts the robot's own motion
+    (its position and heading) by the drive's kinematics instead of the learned models."""
+    other = sorted(set(levels) - {"navigation"})
+    if other:
+        raise HadimError(f"--exact {other[0]}: the search controller replaces only the "
+                         f"navigation level (set controller.kind = \"rules\" for the others)")
+    motion = KinematicMotion(world, learner.reader)
+
+    def position(commands: np.ndarray, obs: np.ndarray, _: np.ndarray) -> np.ndarray:
+        return np.concatenate([motion(o, c[None])[0] for o, c in zip(obs, commands,
+                                                                    strict=True)])
+
+    def heading(commands: np.ndarray, obs: np.ndarray, _: np.ndarray) -> np.ndarray:
+        after = np.concatenate([motion(o, c[None])[1] for o, c in zip(obs, commands,
+                                                                     strict=True)])
+        return after - learner.reader.read_each((ROBOT_HEADING,), obs)
+
+    saved = dict(controller.stand_ins)
+    controller.stand_ins.update({"action": position, "heading": heading})
+    try:
+        yield
+    finally:
+        controller.stand_ins.clear()
+        controller.stand_ins.update(saved)

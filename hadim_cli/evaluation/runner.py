@@ -15,9 +15,11 @@ from hadim_cli.errors import HadimError
 from hadim_cli.evaluation.metric import heading_error, point_error, remaining_share, task_score
 from hadim_cli.evaluation.tasks import Task, check_task
 from hadim_cli.learner.affordance import Affordance
+from hadim_cli.learner.controller import Controller, Decision
 from hadim_cli.learner.explorer import Learner
+from hadim_cli.learner.goals import Binding
 from hadim_cli.learner.navigation import ROBOT_HEADING
-from hadim_cli.learner.planner import Binding, Planner
+from hadim_cli.learner.planner import Planner
 from hadim_cli.learner.spaces import Property, Role, RoleSpace
 from hadim_cli.world.layout import ObservationLayout
 from hadim_cli.world.world import World
@@ -127,7 +129,7 @@ class EvalActuator:
     """Steps the evaluation world within a budget, watching robot–target contacts."""
 
     def __init__(self, world: World, obs: np.ndarray, budget: int, watch: str | None,
-                 planner: Planner | None = None, record: bool = False):
+                 planner: Planner | Controller | None = None, record: bool = False):
         self.world = world
         self._obs = obs
         self.budget = budget
@@ -137,6 +139,9 @@ class EvalActuator:
         self.planner = planner
         """When given, each action is counted by what `planner` pursued (`pursuits`), and
         with `record` kept with the observation after it."""
+        self._decision: Decision | None = None
+        if isinstance(planner, Controller):
+            planner.observer = self._decided
         self.record = record
         self.pursuits: dict[str, int] = {}
         self.observations = [obs.copy()]
@@ -151,6 +156,17 @@ class EvalActuator:
         self.driven_path = 0.0
         self._pushed: tuple[int, int, np.ndarray] | None = None
         self.first_push: FirstPush | None = None
+
+    def _decided(self, decision: Decision) -> None:
+        self._decision = decision
+
+    def _pursuing(self) -> list[tuple[str, tuple[float, ...]]]:
+        """What the controller pursued when it chose the last action: its labels and goals,
+        outermost first."""
+        if isinstance(self.planner, Controller):
+            d = self._decision
+            return [] if d is None else [(d.label, ())]
+        return [(p.label, tuple(map(float, p.goal))) for p in self.planner.stack]
 
     def follow(self, entity: int, start: np.ndarray, point: np.ndarray) -> None:
         """Measure `entity`'s largest distance from the segment start → point, and the
@@ -194,13 +210,12 @@ class EvalActuator:
                 self.driven_moves += 1
                 self.driven_path += moved
         if self.planner is not None:
-            stack = self.planner.stack
-            labels = [p.label for p in stack]
+            pursuing = self._pursuing()
+            labels = [label for label, _ in pursuing]
             chain = " / ".join(labels[1:]) or (labels[0] if labels else "")
             self.pursuits[chain] = self.pursuits.get(chain, 0) + 1
             if self.record:
-                self.steps.append(Step(tuple(labels),
-                                       tuple(tuple(map(float, p.goal)) for p in stack)))
+                self.steps.append(Step(tuple(labels), tuple(goal for _, goal in pursuing)))
                 self.observations.append(self._obs.copy())
         if self.watch is not None and self.watch in self.world.last_contacts:
             self.touched = True
@@ -303,9 +318,10 @@ def evaluate(learner: Learner, world_config: WorldConfig, task: Task,
         if aff is not None:
             binding = Binding(target=target, tool=tool) if aff.has_target else Binding()
             learner.planner.reach(aff, binding, np.asarray(point), actuator, task.budget)
-        trips = learner.planner.trips if aff is not None else 0
+        rules = isinstance(learner.planner, Planner) and aff is not None
+        trips = learner.planner.trips if rules else 0
         shares = tuple(remaining_share(learner.reader.entity_position(o, entity), start, point)
-                       for o in learner.planner.trip_starts) if aff is not None else ()
+                       for o in learner.planner.trip_starts) if rules else ()
         final = learner.reader.entity_position(actuator.obs, entity).copy()
         error = 1.0 if actuator.touched else point_error(start, final, point)
         if task.headings is not None:

@@ -16,13 +16,15 @@ from dataclasses import dataclass, field, replace
 
 import numpy as np
 
-from hadim_cli.config import LearnerConfig, PlannerConfig
+from hadim_cli.config import ControllerConfig, LearnerConfig, PlannerConfig
 from hadim_cli.learner.adaptation import Adaptation
 from hadim_cli.learner.affordance import Affordance, Fitter, output_bounds
+from hadim_cli.learner.controller import Controller
 from hadim_cli.learner.dataset import Dataset
+from hadim_cli.learner.goals import Actuator, Binding
 from hadim_cli.learner.hierarchy import Event, Hierarchy
 from hadim_cli.learner.interest import select_index
-from hadim_cli.learner.planner import Actuator, Binding, Planner
+from hadim_cli.learner.planner import Planner
 from hadim_cli.learner.spaces import ACTION, Property, Role, RoleSpace, SpaceReader
 from hadim_cli.world.layout import ObservationLayout
 
@@ -85,7 +87,8 @@ class Learner:
     """D, H and the machinery acting on them; knows nothing of the world but its layout."""
 
     def __init__(self, config: LearnerConfig, layout: ObservationLayout,
-                 planner: PlannerConfig | None = None):
+                 planner: PlannerConfig | None = None,
+                 controller: ControllerConfig | None = None):
         self.config = config
         self.layout = layout
         self.reader = SpaceReader(
@@ -94,7 +97,12 @@ class Learner:
         self.hierarchy = Hierarchy()
         self.fitter = Fitter(self.dataset, self.reader, config)
         self.adaptation = Adaptation(self.hierarchy, self.fitter, config)
-        self.planner = Planner(self.hierarchy, self.reader, config, planner)
+        controller = ControllerConfig() if controller is None else controller
+        self.planner: Planner | Controller = (
+            Controller(self.hierarchy, self.reader, config, controller)
+            if controller.kind == "search"
+            else Planner(self.hierarchy, self.reader, config, planner))
+        """The controller that turns goals into primitive actions (`controller.kind`)."""
         self.learning_episodes = 0
 
     @property

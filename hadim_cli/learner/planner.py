@@ -28,6 +28,7 @@ from hadim_cli.learner.affordance import (
 )
 from hadim_cli.learner.competence import split_zero
 from hadim_cli.learner.frames import is_vector, seen_where, turns_with_scene
+from hadim_cli.learner.goals import Actuator, Attempt, Binding
 from hadim_cli.learner.hierarchy import Hierarchy
 from hadim_cli.learner.navigation import (
     ROBOT_HEADING,
@@ -63,29 +64,6 @@ MIN_PROGRESS = 0.2
 nearer its goal."""
 
 
-class Actuator(Protocol):
-    """Executes primitive actions: the world during training (recording D) or evaluation."""
-
-    @property
-    def obs(self) -> np.ndarray: ...
-
-    @property
-    def exhausted(self) -> bool: ...
-
-    def act(self, action: np.ndarray) -> np.ndarray: ...
-
-
-@dataclass(frozen=True)
-class Binding:
-    """Entity indices filling an affordance's roles (-1: unbound)."""
-
-    target: int = -1
-    tool: int = -1
-    avoid: int = -1
-    """An entity the robot must not touch: the target while a tool moves it (a tool
-    affordance's data are the target's moves *without* the robot touching it)."""
-
-
 @dataclass(frozen=True)
 class Pursuit:
     """One level of what the planner pursues: an affordance (or the navigator) and its goal."""
@@ -95,21 +73,6 @@ class Pursuit:
     binding: Binding
     places: int = -1
     """The affordance whose context this pursuit places (a trip; -1: not a placement)."""
-
-
-@dataclass(frozen=True)
-class Attempt:
-    """The result of trying to reach one goal."""
-
-    start_distance: float
-    final_distance: float
-    actions: int
-
-    @property
-    def competence(self) -> float:
-        if self.start_distance <= 1e-9:
-            return 1.0
-        return 1.0 - min(1.0, self.final_distance / self.start_distance)
 
 
 def _normalise_heading(space: RoleSpace, value: np.ndarray) -> np.ndarray:

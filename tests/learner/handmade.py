@@ -10,7 +10,7 @@ from dataclasses import replace
 
 import numpy as np
 
-from hadim_cli.config import LearnerConfig
+from hadim_cli.config import Config, LearnerConfig
 from hadim_cli.learner.affordance import Affordance
 from hadim_cli.learner.explorer import Learner
 from hadim_cli.learner.spaces import ACTION, Property, Role, RoleSpace, Rows
@@ -111,3 +111,55 @@ class Room:
         if add:
             self.hierarchy.add(aff, len(self.dataset))
         return aff
+
+
+# ---------------------------------------------------------------------------- real physics
+
+
+def world_rows(learner: Learner, world, scene, rng: np.random.Generator, n_free: int,
+               n_push: int) -> tuple[np.ndarray, np.ndarray]:
+    """Rows of the real World in `scene`: free moves from random poses, and pushes of its
+    first object from a random bearing behind it, facing it. Returns the iterations of
+    each."""
+    obj = scene.objects[0]
+    contact = obj.radius + world.config.robot_radius
+    free, push = [], []
+    learner.dataset.start_episode()
+    for i in range(n_free + n_push):
+        if i < n_free:
+            x, y = rng.uniform(-0.6, -0.1), rng.uniform(-0.5, 0.5)
+            heading = rng.uniform(-np.pi, np.pi)
+            action = rng.uniform(-1, 1, 2)
+        else:
+            bearing = rng.uniform(-np.pi, np.pi)
+            x = obj.x + (contact + rng.uniform(0.0, 0.03)) * np.cos(bearing)
+            y = obj.y + (contact + rng.uniform(0.0, 0.03)) * np.sin(bearing)
+            heading = bearing + np.pi + rng.uniform(-0.3, 0.3)
+            action = np.clip(rng.uniform(0.2, 1.0) + rng.uniform(-0.2, 0.2, 2), -1, 1)
+        start = replace(scene, robot_x=x, robot_y=y, robot_heading=heading)
+        before = world.reset(scene=start)
+        after = world.step(action)
+        (free if i < n_free else push).append(learner.dataset.append(action, before, after))
+    return np.array(free, dtype=np.int64), np.array(push, dtype=np.int64)
+
+
+def world_learner(config: Config, world, scene, n_free: int = 300, n_push: int = 400
+                  ) -> Learner:
+    """A learner whose H holds the robot's motion (`action → robot.position` and
+    `action → robot.heading`, the heading as context) and its push of an object
+    (`robot.position → target.position | target-robot`), fitted on `world_rows`."""
+    learner = Learner(config.learner, world.layout, config.planner, config.controller)
+    rng = np.random.default_rng(0)
+    free, push = world_rows(learner, world, scene, rng, n_free, n_push)
+    unbound = np.full(free.size, -1, dtype=np.int64)
+    bound = np.full(push.size, 1, dtype=np.int64)
+    specs = ((ACTION, ROBOT_POSITION, (ROBOT_HEADING,), Rows(free, unbound, unbound)),
+             (ACTION, ROBOT_HEADING, (ROBOT_HEADING,), Rows(free, unbound, unbound)),
+             (ROBOT_POSITION, TARGET_POSITION, (TARGET_ROBOT,),
+              Rows(push, bound, np.full(push.size, -1, dtype=np.int64))))
+    h = learner.hierarchy
+    for inp, out, contexts, rows in specs:
+        aff = learner.fitter.new_affordance(h.allocate_id(), inp, out, contexts, rows,
+                                            len(learner.dataset), rng)
+        h.add(aff, len(learner.dataset))
+    return learner

@@ -23,8 +23,8 @@ from handmade import (
 
 from hadim_cli.learner.adaptation import CreationBackoff
 from hadim_cli.learner.explorer import Fallback, Mode
+from hadim_cli.learner.goals import Attempt
 from hadim_cli.learner.hierarchy import EventKind
-from hadim_cli.learner.planner import Attempt
 from hadim_cli.learner.spaces import ACTION, Role, RoleSpace, Rows
 from hadim_cli.world.layout import Property
 

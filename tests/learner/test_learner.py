@@ -119,7 +119,7 @@ def test_a_salient_goal_lies_beyond_the_object_nearest_the_target():
     `salient_beyond` past that object's centre along the line between them."""
     from types import SimpleNamespace
 
-    from hadim_cli.learner.planner import Binding
+    from hadim_cli.learner.goals import Binding
 
     session = Session(load_config(), seed=0)
     learner = session.learner
@@ -146,7 +146,7 @@ def test_a_salient_goal_through_a_tool_drives_the_tool_straight_into_the_target(
     tool: the tool driven into it from where it is (no trip round the target first)."""
     from types import SimpleNamespace
 
-    from hadim_cli.learner.planner import Binding
+    from hadim_cli.learner.goals import Binding
 
     session = Session(load_config(), seed=0)
     learner = session.learner
@@ -171,8 +171,8 @@ def test_goal_babbling_takes_salient_goals_for_objects(monkeypatch):
     interest map records the goal tried."""
     from types import SimpleNamespace
 
+    from hadim_cli.learner.goals import Attempt, Binding
     from hadim_cli.learner.interest import InterestMap
-    from hadim_cli.learner.planner import Attempt, Binding
 
     session = Session(load_config(), seed=0)
     learner = session.learner

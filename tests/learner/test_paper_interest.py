@@ -16,8 +16,8 @@ from handmade import ROBOT_HEADING, ROBOT_POSITION, Room
 from hadim_cli.learner.affordance import per_model
 from hadim_cli.learner.competence import range_scale
 from hadim_cli.learner.explorer import Mode
+from hadim_cli.learner.goals import Attempt
 from hadim_cli.learner.interest import Progress
-from hadim_cli.learner.planner import Attempt
 from hadim_cli.learner.spaces import Rows
 
 

@@ -1,0 +1,518 @@
+"""The controller: a goal of an affordance turned into primitive actions by one search.
+
+H gives a chain from the goal's affordance down to the primitive action: the affordance whose
+output the goal is in (`tool.position → target.position`), the affordance that drives its
+input (`robot.position → tool.position`, with the tool as its target), and so on until an
+affordance whose input is the primitive action (`action → robot.position`). Every action,
+`Controller.act` searches over short sequences of primitive actions (a beam `horizon` deep),
+imagining each through the chain's forward models — the action moves the robot, the robot's
+move moves the tool, the tool's move moves the target — and takes the first action of the
+sequence whose imagined end costs least. It replans after every action (receding horizon).
+
+The cost is the estimated number of actions still to go: the goal entity's way to the goal in
+its affordance's steps, plus, level by level, each mover's way to the place its affordance
+acts from (`places.needed_context`: the tool at the target's far side, the robot behind the
+tool), in steps of the level that moves it, round the bodies in between. A mover that turns
+(it has an `action → heading` affordance) pays its turns too. Where a mover is on its way to
+its place, the level below it is asked to move it there; where it is in place, to move it as
+the inverse model says its affordance needs. Going round the tool, re-placing it and pushing
+on along a line all come out of this one search: nothing in it names a robot, a tool or a
+trip.
+
+Hard constraints prune imagined actions: no two bodies closer than touching (bodies a level
+pushes may touch, never overlap), none entering the clearance of a body no level pushes
+(moving away is always allowed: how a robot wedged beside an object gets out; the entity a
+binding forbids, e.g. the target while a tool moves it, is such a body), every body inside
+the world's bounds. A pursuit whose cost has not reached a new low for `stall` actions is
+given up. The controller draws no random numbers and changes nothing in the learner.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from dataclasses import dataclass, field
+from typing import NamedTuple
+
+import numpy as np
+
+from hadim_cli.config import ControllerConfig, LearnerConfig
+from hadim_cli.learner.affordance import Affordance, typical_step
+from hadim_cli.learner.competence import split_zero
+from hadim_cli.learner.frames import is_vector
+from hadim_cli.learner.goals import Actuator, Attempt, Binding
+from hadim_cli.learner.hierarchy import Hierarchy
+from hadim_cli.learner.places import context_slices, needed_context
+from hadim_cli.learner.spaces import ACTION, Property, Role, RoleSpace, SpaceReader
+
+
+class Level(NamedTuple):
+    """One affordance of the chain under its binding: its output belongs to `moved`, its
+    input to `mover` (-1: the primitive action); `relation`: the columns of its context
+    relating the two (None: none), the place it acts from."""
+
+    affordance: Affordance
+    binding: Binding
+    moved: int
+    mover: int
+    relation: slice | None
+
+
+@dataclass
+class Pursuit:
+    """What the controller keeps between the actions of one goal."""
+
+    affordance: Affordance
+    binding: Binding
+    goal: np.ndarray
+    start: float
+    """The output's distance to the goal when the pursuit began."""
+    best: float = np.inf
+    """The least estimated actions to go seen so far."""
+    since_best: int = 0
+    """Actions taken since then."""
+
+
+@dataclass(frozen=True)
+class Decision:
+    """The trace of one action: what the search saw (for an observer; nothing reads it
+    back)."""
+
+    action: np.ndarray
+    to_go: float
+    """Estimated actions to go before the action."""
+    predicted: float
+    """The chosen sequence's estimated actions, its own included."""
+    label: str
+    """What the action serves: the lowest level whose mover is off its place
+    ("place tool for A6"), else the goal's own affordance."""
+    gaps: tuple[float, ...] = field(default_factory=tuple)
+    """Per level with a place, its mover's distance to it (m)."""
+
+
+@dataclass
+class _Plan:
+    """One action's view of the chain: each level's step, and the place and input of each
+    level for an outcome along (1, 0), turned to each imagined outcome's direction."""
+
+    levels: tuple[Level, ...]
+    goal: np.ndarray
+    steps: np.ndarray
+    turn: float
+    """The mover at the bottom's typical turn per action (rad; inf: it does not turn)."""
+    places: list[np.ndarray | None]
+    inputs: list[np.ndarray | None]
+
+
+def _rotate(v: np.ndarray, u: np.ndarray) -> np.ndarray:
+    """`v` (2,) turned from (1, 0) to each unit direction of `u` (M, 2)."""
+    return np.stack([u[:, 0] * v[0] - u[:, 1] * v[1], u[:, 1] * v[0] + u[:, 0] * v[1]], 1)
+
+
+def _unit(v: np.ndarray) -> np.ndarray:
+    n = np.linalg.norm(v, axis=-1, keepdims=True)
+    return np.where(n > 1e-12, v / np.maximum(n, 1e-12), 0.0)
+
+
+def _line_angle(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """Angle (0..π/2) between the lines along unit rows of `a` and `b` (either way counts)."""
+    return np.arccos(np.clip(np.abs(np.sum(a * b, axis=-1)), 0.0, 1.0))
+
+
+def _turned(u: np.ndarray, angle: np.ndarray) -> np.ndarray:
+    c, s = np.cos(angle), np.sin(angle)
+    return np.stack([c * u[:, 0] - s * u[:, 1], s * u[:, 0] + c * u[:, 1]], 1)
+
+
+def detour(frm: np.ndarray, to: np.ndarray, centres: np.ndarray, radii: np.ndarray
+           ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Length of the shortest way from each `frm` to its `to` (both (M, 2)) that goes round
+    the discs (`centres` (M, K, 2), `radii` (M, K)) in between — along the tangents and the
+    arc of the disc whose detour is longest — with the directions it starts and arrives in.
+    A start within a disc counts as on its rim; a disc holding the end is no obstacle."""
+    way = to - frm
+    dist = np.linalg.norm(way, axis=1)
+    first = _unit(way)
+    last = first.copy()
+    length = dist.copy()
+    for k in range(centres.shape[1]):
+        c, r = centres[:, k], radii[:, k]
+        rel, end = frm - c, np.linalg.norm(to - c, axis=1)
+        s = np.clip(-np.sum(rel * way, 1) / np.maximum(dist ** 2, 1e-12), 0.0, 1.0)
+        near = rel + s[:, None] * way
+        d0 = np.maximum(np.linalg.norm(rel, axis=1), r)
+        # Only a way that comes nearer the centre than it starts, into the disc, goes round.
+        hit = (np.sum(near * near, 1) < r * r) & (s > 1e-9) & (end > r)
+        if not hit.any():
+            continue
+        u0, u1 = _unit(rel), _unit(to - c)
+        apart = np.arccos(np.clip(np.sum(u0 * u1, 1), -1.0, 1.0))
+        a0 = np.arccos(np.minimum(r / np.maximum(d0, 1e-12), 1.0))
+        a1 = np.arccos(np.minimum(r / np.maximum(end, 1e-12), 1.0))
+        around = (np.sqrt(np.maximum(d0 ** 2 - r ** 2, 0.0))
+                  + np.sqrt(np.maximum(end ** 2 - r ** 2, 0.0))
+                  + r * np.maximum(apart - a0 - a1, 0.0))
+        longer = hit & (around > length)
+        side = np.where(u0[:, 0] * u1[:, 1] - u0[:, 1] * u1[:, 0] >= 0, 1.0, -1.0)
+        touch = c + r[:, None] * _turned(u0, side * a0)
+        tangent = np.stack([-side * u0[:, 1], side * u0[:, 0]], 1)
+        start = np.where((d0 <= r * (1 + 1e-9))[:, None], tangent, _unit(touch - frm))
+        leave = c + r[:, None] * _turned(u1, -side * a1)
+        length = np.where(longer, around, length)
+        first = np.where(longer[:, None], start, first)
+        last = np.where(longer[:, None], _unit(to - leave), last)
+    return length, first, last
+
+
+class Controller:
+    """Turns goals of affordances into primitive actions (paper §4.3, 'TransformToPrimitive';
+    see the module doc). `predict`: forward predictions to use instead of a level's learned
+    model, by the level's input space name — only for evaluation (`evaluation.exact`)."""
+
+    def __init__(self, hierarchy: Hierarchy, reader: SpaceReader, config: LearnerConfig,
+                 controller: ControllerConfig | None = None):
+        self.h = hierarchy
+        self.reader = reader
+        self.config = config
+        self.pc = ControllerConfig() if controller is None else controller
+        axis = np.linspace(-1.0, 1.0, self.pc.commands)
+        axis = np.sign(axis) * np.abs(axis) ** 1.5  # finer near standing still
+        grid = np.stack(np.meshgrid(axis, axis, indexing="ij"), -1).reshape(-1, 2)
+        self.commands = grid[np.linalg.norm(grid, axis=1) > 1e-9]
+        """The primitive actions the search tries (a grid over the action space)."""
+        self.observer: Callable[[Decision], None] | None = None
+        """Handed each action's `Decision` (evaluation records them)."""
+        self.stand_ins: dict[str, Callable[[np.ndarray, np.ndarray, np.ndarray], np.ndarray]] = {}
+        """Per input space name, predictions (input changes, contexts' observations, binding
+        entities) → output changes replacing that level's model (`evaluation.exact`)."""
+        layout = reader.layout
+        self._positions = np.array([layout.space(e, Property.POSITION).start
+                                    for e in layout.entities])
+        bounds = layout.space(layout.entities[0], Property.POSITION)
+        self._low, self._high = np.asarray(bounds.low), np.asarray(bounds.high)
+
+    # ------------------------------------------------------------------ public contract
+    def pursue(self, aff: Affordance, binding: Binding, goal: np.ndarray,
+               obs: np.ndarray) -> Pursuit:
+        """A new pursuit of `goal` (an absolute value of `aff`'s output) from `obs`."""
+        goal = np.asarray(goal, dtype=float)
+        if aff.output.prop is Property.HEADING:
+            goal = goal / max(float(np.linalg.norm(goal)), 1e-9)
+        start = float(np.linalg.norm(goal - self._value(aff.output, obs, binding)))
+        return Pursuit(aff, binding, goal, start)
+
+    def act(self, obs: np.ndarray, pursuit: Pursuit) -> np.ndarray | None:
+        """The next primitive action towards the pursuit's goal; None when the goal is
+        reached, the chain cannot act, or the pursuit stalled."""
+        aff, b = pursuit.affordance, pursuit.binding
+        dist = float(np.linalg.norm(pursuit.goal - self._value(aff.output, obs, b)))
+        if dist <= max(self.config.reach_tolerance * pursuit.start, self.config.zero_eps):
+            return None
+        plan = self._plan(obs, pursuit)
+        if plan is None:
+            return None
+        now, gaps, label = self._to_go(obs[None], plan, trace=True)
+        if now[0] < pursuit.best - 1e-6:
+            pursuit.best, pursuit.since_best = float(now[0]), 0
+        elif pursuit.since_best >= self.pc.stall:
+            return None
+        pursuit.since_best += 1
+        chosen = self._search(obs, plan, float(now[0]))
+        if chosen is None:
+            return None
+        action, predicted = chosen
+        if self.observer is not None:
+            self.observer(Decision(action.copy(), float(now[0]), predicted, label, gaps))
+        return action
+
+    def reach(self, aff: Affordance, binding: Binding, goal: np.ndarray, actuator: Actuator,
+              budget: int) -> Attempt:
+        """Pursue `goal` with `actuator` until reached, given up or `budget` actions."""
+        pursuit = self.pursue(aff, binding, goal, actuator.obs)
+        used = 0
+        while used < budget and not actuator.exhausted:
+            action = self.act(actuator.obs, pursuit)
+            if action is None:
+                break
+            actuator.act(action)
+            used += 1
+        final = float(np.linalg.norm(pursuit.goal
+                                     - self._value(aff.output, actuator.obs, binding)))
+        return Attempt(pursuit.start, final, used)
+
+    def chain(self, aff: Affordance, binding: Binding) -> tuple[Level, ...] | None:
+        """The levels from `aff` down to an affordance of the primitive action, each
+        driving the input of the one above (most competent first, none twice); None when
+        some input has no driver with data."""
+        levels: list[Level] = []
+        while True:
+            levels.append(self._level(aff, binding))
+            if aff.input is ACTION:
+                return tuple(levels)
+            space = aff.input
+            if space.role is Role.TOOL:
+                binding = Binding(target=binding.tool, avoid=binding.target)
+            used = {lv.affordance.id for lv in levels}
+            drivers = [a for a in self.h.controllers(space) if a.id not in used
+                       and a.model.n >= 2 and (binding.tool >= 0 or not a.has_tool)]
+            if not drivers:
+                return None
+            aff = drivers[0]
+
+    # ------------------------------------------------------------------ the chain
+    def _level(self, aff: Affordance, b: Binding) -> Level:
+        relation = None
+        if aff.input is not ACTION and aff.input.prop is Property.POSITION:
+            for space, sl in zip(aff.contexts, context_slices(aff), strict=True):
+                if space.role is aff.output.role and space.relative_to is aff.input.role:
+                    relation = sl
+                    break
+        mover = -1 if aff.input is ACTION else _entity(aff.input.role, b)
+        return Level(aff, b, _entity(aff.output.role, b), mover, relation)
+
+    def _value(self, space: RoleSpace, obs: np.ndarray, b: Binding) -> np.ndarray:
+        return self.reader.value_now(space, obs, b.target, b.tool)
+
+    def _contexts(self, aff: Affordance, arr: np.ndarray, b: Binding) -> np.ndarray | None:
+        if not aff.contexts:
+            return None
+        return self.reader.read_each(aff.contexts, arr, b.target, b.tool)
+
+    def _step(self, aff: Affordance) -> float:
+        return max(typical_step(aff, self.pc.step_quantile, self.config.zero_eps), 1e-3)
+
+    def _turner(self, entity: int) -> Affordance | None:
+        """The most competent affordance of the primitive action on the heading of
+        `entity`'s role (None: it does not turn)."""
+        if entity != 0:
+            return None
+        found = [a for a in self.h.with_output(RoleSpace(Role.ROBOT, Property.HEADING))
+                 if a.input is ACTION and a.model.n >= 2]
+        return max(found, key=lambda a: a.competence, default=None)
+
+    def _plan(self, obs: np.ndarray, pursuit: Pursuit) -> _Plan | None:
+        levels = self.chain(pursuit.affordance, pursuit.binding)
+        if levels is None:
+            return None
+        steps = np.array([self._step(lv.affordance) for lv in levels])
+        turner = self._turner(levels[-1].moved)
+        turn = np.inf if turner is None else 2 * np.arcsin(min(self._step(turner) / 2, 1.0))
+        places, inputs = [], []
+        for lv, step in zip(levels, steps, strict=True):
+            place = x = None
+            if lv.relation is not None:
+                aff = lv.affordance
+                c = self._contexts(aff, obs[None], lv.binding)[0]
+                delta = np.array([step, 0.0])
+                driven = np.array([sl == lv.relation for sl in context_slices(aff)])
+                need = needed_context(aff, delta, c, driven, zero_eps=self.config.zero_eps,
+                                      k=2 * self.config.k_inverse,
+                                      support=self.pc.context_support,
+                                      agreement=self.pc.agreement)
+                place = need[lv.relation]
+                contact = self.reader.relation_offset
+                if contact is not None:
+                    # Bodies act on each other in contact: the place is the relation's
+                    # bearing at contact (the rows' lengths tell where approaches began).
+                    place = place * (contact / max(float(np.linalg.norm(place)), 1e-9))
+                x = aff.model.infer(delta, need).x
+            places.append(place)
+            inputs.append(x)
+        return _Plan(levels, pursuit.goal, steps, turn, places, inputs)
+
+    # ------------------------------------------------------------------ imagining
+    def _imagine(self, arr: np.ndarray, plan: _Plan) -> tuple[np.ndarray, np.ndarray]:
+        """Every command from each observation of `arr` (M, D), imagined through the chain:
+        the observations after (M·N, D), and the mask of those the hard constraints allow."""
+        n = self.commands.shape[0]
+        before = np.repeat(arr, n, 0)
+        after = before.copy()
+        x = np.tile(self.commands, (arr.shape[0], 1))
+        for lv in reversed(plan.levels):
+            aff, b = lv.affordance, lv.binding
+            c = self._contexts(aff, before, b)
+            stand_in = self.stand_ins.get(aff.input.name)
+            if stand_in is not None:
+                y = stand_in(x, before, np.array([lv.moved, lv.mover]))
+            else:
+                y = aff.model.predict(x, c)
+                if lv.mover >= 0 and lv.affordance.input.prop is Property.POSITION:
+                    y = np.where(self._reaches(before, lv, x)[:, None], y, 0.0)
+            self._write(after, lv.moved, aff.output.prop, y)
+            x = y
+        bottom = plan.levels[-1]
+        turner = self._turner(bottom.moved)
+        if turner is not None and turner.output != bottom.affordance.output:
+            stand_in = self.stand_ins.get("heading")
+            acts = np.tile(self.commands, (arr.shape[0], 1))
+            y = (stand_in(acts, before, np.array([0, -1])) if stand_in is not None
+                 else turner.model.predict(acts, self._contexts(turner, before, Binding())))
+            self._write(after, bottom.moved, Property.HEADING, y)
+        lay = self.reader.layout
+        after[:, lay.object_columns(Property.RELATIVE)] = (
+            after[:, lay.object_columns(Property.POSITION)]
+            - after[:, None, self._positions[0]:self._positions[0] + 2])
+        return after, self._allowed(before, after, plan.levels)
+
+    def _reaches(self, arr: np.ndarray, lv: Level, x: np.ndarray) -> np.ndarray:
+        """Whether the mover of `lv`, moved by `x` from where it is in `arr`, comes into
+        contact with the body it moves on the way: only then can it move it (the support
+        gate: the model's rows from further are pushes through a third body)."""
+        pos, radii = self._bodies(arr)
+        start, centre = pos[:, lv.mover], pos[:, lv.moved]
+        length2 = np.maximum(np.sum(x * x, 1), 1e-12)
+        s = np.clip(np.sum((centre - start) * x, 1) / length2, 0.0, 1.0)
+        nearest = np.linalg.norm(start + s[:, None] * x - centre, axis=1)
+        touch = radii[:, lv.mover] + radii[:, lv.moved] + self.config.zero_eps
+        return (nearest <= touch) & ~split_zero(x, self.config.zero_eps)
+
+    def _write(self, arr: np.ndarray, entity: int, prop: Property, change: np.ndarray) -> None:
+        lay = self.reader.layout
+        sl = lay.space(lay.entities[entity], prop).slice
+        if prop is Property.HEADING:
+            arr[:, sl] = _unit(arr[:, sl] + change)
+        else:
+            arr[:, sl] += change
+
+    def _bodies(self, arr: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Every entity's position (M, E, 2) and radius (M, E) in `arr`."""
+        cols = self._positions[:, None] + np.arange(2)
+        lay = self.reader.layout
+        radii = np.stack([arr[:, lay.space(e, Property.RADIUS).start] for e in lay.entities], 1)
+        return arr[:, cols], radii
+
+    def _allowed(self, before: np.ndarray, after: np.ndarray, levels: tuple[Level, ...]
+                 ) -> np.ndarray:
+        """The hard constraints: see the module doc."""
+        p0, radii = self._bodies(before)
+        p1, _ = self._bodies(after)
+        clearance = self.pc.clearance
+        pushes = ({frozenset((lv.mover, lv.moved)) for lv in levels if lv.mover >= 0}
+                  - {frozenset((lv.mover, lv.binding.avoid)) for lv in levels})
+        ok = np.ones(before.shape[0], dtype=bool)
+        moved = np.flatnonzero(np.any(np.abs(p1 - p0) > 1e-9, axis=(0, 2)))
+        for i in moved:
+            for j in range(p0.shape[1]):
+                if j == i:
+                    continue
+                touch = radii[:, i] + radii[:, j]
+                d0 = np.linalg.norm(p0[:, i] - p0[:, j], axis=1)
+                d1 = np.linalg.norm(p1[:, i] - p1[:, j], axis=1)
+                if frozenset((i, j)) in pushes:
+                    ok &= d1 >= touch - clearance
+                else:
+                    ok &= (d1 >= touch + clearance) | (d1 >= d0 - 1e-6)
+            inside = ((p1[:, i] - radii[:, i, None] >= self._low)
+                      & (p1[:, i] + radii[:, i, None] <= self._high)).all(1)
+            ok &= inside | (np.abs(p1[:, i]).max(1) <= np.abs(p0[:, i]).max(1))
+        return ok
+
+    # ------------------------------------------------------------------ the cost
+    def _to_go(self, arr: np.ndarray, plan: _Plan, trace: bool = False):
+        """Estimated actions to go from each observation of `arr` (M, D) (see the module
+        doc); with `trace`, also each level's gap to its place and the label of the first
+        observation."""
+        levels, steps = plan.levels, plan.steps
+        top = levels[0]
+        pos, radii = self._bodies(arr)
+        out = self.reader.read_each((top.affordance.output,), arr, top.binding.target,
+                                    top.binding.tool)
+        way = plan.goal - out
+        gaps: list[float] = []
+        label = f"A{top.affordance.id} {top.affordance.output.name}"
+        if top.affordance.output.prop is Property.POSITION and top.moved >= 0:
+            length, u, _ = self._way(pos, radii, top.moved, plan.goal[None], levels)
+        else:
+            length, u = np.linalg.norm(way, axis=1), _unit(way)
+        cost = length / steps[0]
+        if top.mover < 0:
+            cost = cost + self._turns(arr, plan, top.moved, u)
+        for i, lv in enumerate(levels[:-1]):
+            if lv.relation is None or plan.places[i] is None or not is_vector(lv.affordance.output):
+                continue
+            turned = _rotate(plan.places[i], u)
+            if self.reader.relation_offset is not None:
+                contact = radii[:, lv.moved] + radii[:, lv.mover]
+                norm = np.maximum(np.linalg.norm(turned, axis=1), 1e-9)
+                centre = np.maximum(norm - self.reader.relation_offset + contact, 1e-3)
+                turned = turned * (centre / norm)[:, None]
+            place = pos[:, lv.moved] - turned
+            gap, toward, arrive = self._way(pos, radii, lv.mover, place, levels)
+            low = steps[i + 1]
+            cost = cost + gap / low
+            push = _unit(_rotate(plan.inputs[i], u)) if plan.inputs[i] is not None else u
+            w = np.clip(gap / low, 0.0, 1.0)
+            u = _unit(w[:, None] * toward + (1.0 - w[:, None]) * push)
+            if i + 2 < len(levels):
+                # On the way, the mover is moved along the way; in place, along the push:
+                # its own mover will have to go round it from one side to the other.
+                under = levels[i + 1].mover
+                turn = np.arccos(np.clip(np.sum(arrive * push, 1), -1.0, 1.0))
+                round_it = (radii[:, lv.mover] + radii[:, under]) * turn
+                cost = cost + w * round_it / steps[i + 2]
+            if levels[i + 1].mover < 0:
+                cost = cost + self._turns(arr, plan, lv.mover, u)
+            if trace:
+                gaps.append(float(gap[0]))
+                if gap[0] > low:
+                    label = f"place {lv.affordance.input.role.value} for A{lv.affordance.id}"
+        if trace:
+            return cost, tuple(gaps), label
+        return cost
+
+    def _way(self, pos: np.ndarray, radii: np.ndarray, entity: int, to: np.ndarray,
+             levels: tuple[Level, ...]) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """`detour` of `entity` from where it is to `to` round every other body but those
+        that move it (they travel with it)."""
+        below = [i for i, lv in enumerate(levels) if lv.moved == entity]
+        movers = {lv.mover for lv in levels[below[0]:]} if below else set()
+        others = [j for j in range(pos.shape[1]) if j != entity and j not in movers]
+        moves = [lv.moved for lv in levels if lv.mover == entity]
+        frm = pos[:, entity]
+        to = np.broadcast_to(to, frm.shape)
+        keep = radii[:, entity, None] + radii[:, others] + self.pc.clearance
+        # The body it acts on is gone round at contact: its place lies just there.
+        keep[:, [j in moves for j in others]] -= self.pc.clearance + 1e-3
+        return detour(frm, to, pos[:, others], keep)
+
+    def _turns(self, arr: np.ndarray, plan: _Plan, entity: int, u: np.ndarray) -> np.ndarray:
+        """Actions a turning mover needs to face the line of `u` (0 for one that does not
+        turn)."""
+        if not np.isfinite(plan.turn) or entity != 0:
+            return np.zeros(arr.shape[0])
+        lay = self.reader.layout
+        heading = _unit(arr[:, lay.space(lay.entities[0], Property.HEADING).slice])
+        return _line_angle(heading, u) / plan.turn
+
+    # ------------------------------------------------------------------ the search
+    def _search(self, obs: np.ndarray, plan: _Plan, now: float
+                ) -> tuple[np.ndarray, float] | None:
+        """The first command of the sequence (at most `horizon` deep, `beam` kept per depth)
+        whose imagined end has the least actions used plus estimated to go (`now` from
+        `obs`); None when none is predicted to end nearer than `now`."""
+        n = self.commands.shape[0]
+        states = obs[None]
+        first = np.zeros(1, dtype=np.int64)
+        best: tuple[float, int, float] | None = None
+        for depth in range(1, self.pc.horizon + 1):
+            after, ok = self._imagine(states, plan)
+            origin = np.arange(n) if depth == 1 else np.repeat(first, n)
+            if not ok.any():
+                break
+            after, origin = after[ok], origin[ok]
+            to_go = self._to_go(after, plan)
+            total = depth + to_go
+            i = int(np.argmin(total))
+            if best is None or total[i] < best[0] - 1e-9:
+                best = (float(total[i]), int(origin[i]), float(to_go[i]))
+            keep = np.argsort(total, kind="stable")[:self.pc.beam]
+            states, first = after[keep], origin[keep]
+        if best is None or best[2] >= now - 1e-6:
+            return None  # no sequence is predicted to bring the goal nearer
+        return self.commands[best[1]].copy(), best[0]
+
+
+def _entity(role: Role, b: Binding) -> int:
+    if role is Role.ROBOT:
+        return 0
+    return b.target if role is Role.TARGET else b.tool
+

@@ -1,0 +1,126 @@
+"""The search controller through its public contract (`Controller.act`, `Controller.reach`),
+on models fitted on rows of the real pymunk World (`handmade.world_learner`): reach a
+place, go round a body in the way without touching it, push an object along a line, give
+up within a bound when nothing can be reached; and `detour`'s length against the geometry
+of tangents and arcs computed here by hand."""
+
+from __future__ import annotations
+
+import dataclasses
+
+import numpy as np
+import pytest
+from handmade import world_learner
+
+from hadim_cli.config import ControllerConfig, load_config
+from hadim_cli.evaluation.runner import evaluate
+from hadim_cli.evaluation.tasks import load_task
+from hadim_cli.learner.controller import Controller, detour
+from hadim_cli.learner.goals import Binding
+from hadim_cli.learner.spaces import Property, Role, RoleSpace
+from hadim_cli.world.world import World
+
+TASK = load_task("push-line")
+ROBOT_POSITION = RoleSpace(Role.ROBOT, Property.POSITION)
+
+
+@pytest.fixture(scope="module")
+def rig():
+    config = dataclasses.replace(load_config(), controller=ControllerConfig(kind="search"))
+    world = World(config.world)
+    learner = world_learner(config, world, TASK.scene)
+    assert isinstance(learner.planner, Controller)
+    return config, world, learner
+
+
+def _mover(learner):
+    return next(a for a in learner.hierarchy.with_output(ROBOT_POSITION))
+
+
+def _drive(world, controller, aff, binding, goal, budget):
+    """Pursue `goal` from the task's scene through `act`; returns the observations and
+    every pair of bodies that touched on the way."""
+    obs = world.reset(scene=TASK.scene)
+    pursuit = controller.pursue(aff, binding, goal, obs)
+    seen, touched = [obs], set()
+    for _ in range(budget):
+        action = controller.act(obs, pursuit)
+        if action is None:
+            break
+        obs = world.step(action)
+        seen.append(obs)
+        touched |= set(world.last_contacts)
+    return seen, touched
+
+
+@pytest.mark.parametrize("goal", [(-0.6, 0.5), (0.0, -0.7), (-0.8, -0.3)])
+def test_the_robot_reaches_a_place(rig, goal):
+    _, world, learner = rig
+    seen, _ = _drive(world, learner.planner, _mover(learner), Binding(), np.array(goal), 30)
+    final = learner.reader.entity_position(seen[-1], 0)
+    assert np.linalg.norm(final - goal) <= 0.05, final
+    # About the distance at full speed plus two turns.
+    assert len(seen) - 1 <= 4 + np.hypot(*goal) / 0.15
+
+
+@pytest.mark.parametrize("avoid", [-1, 1])
+def test_the_robot_goes_round_a_body_in_its_way_without_touching_it(rig, avoid):
+    _, world, learner = rig
+    goal = np.array([0.9, 0.05])  # behind obj1, which stands at (0.45, 0) on the way
+    seen, touched = _drive(world, learner.planner, _mover(learner), Binding(avoid=avoid),
+                           goal, 40)
+    final = learner.reader.entity_position(seen[-1], 0)
+    assert np.linalg.norm(final - goal) <= 0.06, final
+    assert not any("robot" in pair for pair in touched), touched
+
+
+def test_the_robot_pushes_an_object_along_a_line(rig):
+    config, _, learner = rig
+    task = dataclasses.replace(TASK, points=(TASK.points[0], TASK.points[4]))
+    result = evaluate(learner, config.world, task)
+    assert result.score >= 0.85, [p.error for p in result.points]
+    assert all(p.line_deviation <= 0.15 for p in result.points)
+
+
+def test_a_place_beyond_the_walls_is_given_up_within_a_bound(rig):
+    config, world, learner = rig
+    controller = learner.planner
+    obs = world.reset(scene=TASK.scene)
+    pursuit = controller.pursue(_mover(learner), Binding(), np.array([-3.0, 0.0]), obs)
+    used = 0
+    while (action := controller.act(obs, pursuit)) is not None:
+        obs = world.step(action)
+        used += 1
+        assert used < 60, "the pursuit of an unreachable place never ended"
+    # The wall is 2 m away: about 14 actions there, then at most `stall` without progress.
+    assert used <= 2.0 / 0.15 + 4 + config.controller.stall
+    assert controller.act(obs, pursuit) is None
+
+
+def test_the_same_observation_gives_the_same_action(rig):
+    _, world, learner = rig
+    obs = world.reset(scene=TASK.scene)
+    goal = np.array(TASK.points[2])
+    push = next(a for a in learner.hierarchy if a.input == ROBOT_POSITION)
+    first = [learner.planner.act(obs, learner.planner.pursue(push, Binding(target=1), goal,
+                                                              obs)) for _ in range(2)]
+    assert first[0] is not None and np.array_equal(first[0], first[1])
+
+
+def test_a_detour_round_a_disc_is_the_tangents_and_the_arc_between_them():
+    frm, to = np.array([[-1.0, 0.0]]), np.array([[1.0, 0.0]])
+    r = 0.5
+    length, first, last = detour(frm, to, np.zeros((1, 1, 2)), np.full((1, 1), r))
+    tangent = np.sqrt(1.0 - r * r)
+    touch = np.arccos(r)  # the angle at the centre between the start and its tangent point
+    assert length[0] == pytest.approx(2 * tangent + r * (np.pi - 2 * touch))
+    # It leaves along the tangent (30° off the straight way here) and arrives along the other.
+    assert abs(first[0, 1]) == pytest.approx(0.5)
+    assert first[0, 1] == pytest.approx(-last[0, 1])
+
+
+def test_a_disc_off_the_way_or_holding_its_end_is_no_obstacle():
+    frm, to = np.array([[-1.0, 0.0], [-1.0, 0.0]]), np.array([[1.0, 0.0], [0.1, 0.0]])
+    centres = np.array([[[0.0, 2.0]], [[0.0, 0.0]]])
+    length, _, _ = detour(frm, to, centres, np.array([[0.5], [0.5]]))
+    assert length == pytest.approx([2.0, 1.1])
