@@ -146,7 +146,7 @@ def test_each_point_is_scored_by_the_share_of_its_distance_left_and_the_task_by_
     from hadim_cli.config import load_config
     from hadim_cli.evaluation.runner import evaluate
     from hadim_cli.learner.explorer import Learner
-    from hadim_cli.learner.planner import Attempt
+    from hadim_cli.learner.goals import Attempt
     from hadim_cli.learner.spaces import ACTION, Rows, parse_space
     from hadim_cli.world.world import World
 
