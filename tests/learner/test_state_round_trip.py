@@ -20,6 +20,7 @@ from handmade import (
 from scipy.spatial import cKDTree
 
 from hadim_cli.learner.explorer import Learner
+from hadim_cli.learner.hierarchy import EventKind
 from hadim_cli.learner.spaces import ACTION, Rows
 from hadim_cli.learner.state import learner_state, restore_learner
 
@@ -177,3 +178,53 @@ def test_a_restored_learner_goes_on_as_the_saved_one():
         twin.interest.add([1.98, 1.98], 0.1 * (i % 3), 400 + i)
     assert np.array_equal(mover.interest.sample_goal(a), twin.interest.sample_goal(b))
     assert_same(room.learner, copy)
+
+
+def test_a_state_that_does_not_fit_its_learner_is_refused():
+    """A learner is restored only onto the D its checkpoint was taken with, from a format
+    this version reads: D of another length, rows beyond D or an unknown format is an
+    error naming what is wrong, never a learner quietly wrong."""
+    import pytest
+
+    room = rich_learner()
+    meta, arrays = learner_state(room.learner)
+    meta = json.loads(json.dumps(meta))
+
+    def blank(rows: int | None = None) -> Learner:
+        copy = Learner(room.config, room.layout)
+        n = len(room.dataset) if rows is None else rows
+        copy.dataset.extend(room.dataset.actions[:n], room.dataset.contexts[:n],
+                            room.dataset.outcomes[:n])
+        return copy
+
+    with pytest.raises(ValueError, match="D holds 299 iterations, the checkpoint 300"):
+        restore_learner(blank(299), meta, arrays)
+    with pytest.raises(ValueError, match="unsupported learner state format 3"):
+        restore_learner(blank(), {**meta, "format": 3}, arrays)
+    with pytest.raises(ValueError, match="unsupported learner state format None"):
+        restore_learner(blank(), {k: v for k, v in meta.items() if k != "format"}, arrays)
+    mover = room.hierarchy.with_output(ROBOT_POSITION)[0]
+    beyond = dict(arrays)
+    beyond[f"aff{mover.id}.rows.t"] = arrays[f"aff{mover.id}.rows.t"] + 1
+    with pytest.raises(ValueError, match=f"affordance {mover.id} has rows beyond D"):
+        restore_learner(blank(), meta, beyond)
+    restore_learner(blank(), {**meta, "format": 1}, arrays)  # format 1 still reads
+
+
+def test_the_timeline_and_counters_come_back_as_saved():
+    """Events keep their kind, spaces, contexts, competence and detail; the next id, the
+    learning episodes and the creation back-off are those saved."""
+    room = rich_learner()
+    copy = restored(room)
+    h, c = room.hierarchy, copy.hierarchy
+    assert len(h.events) >= 3 and c.events == h.events
+    assert {e.kind for e in c.events} >= {EventKind.CREATED, EventKind.DELETED}
+    assert c.next_id == h.next_id and copy.learning_episodes == 17
+    assert copy.adaptation.backoff.next_try == room.adaptation.backoff.next_try != {}
+    assert copy.adaptation.backoff.wait == room.adaptation.backoff.wait != {}
+    for a, b in zip(room.hierarchy, c, strict=True):
+        assert (b.id, b.input, b.output, b.contexts, b.created_at, b.competence,
+                b.low_streak, b.history) == (a.id, a.input, a.output, a.contexts,
+                                             a.created_at, a.competence, a.low_streak,
+                                             a.history)
+        assert (b.classifier is None) == (a.classifier is None)
