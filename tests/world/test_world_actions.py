@@ -34,6 +34,13 @@ def test_an_actions_file_is_read_as_rows_of_two_intensities(tmp_path, suffix):
     assert got.dtype == np.float64 and np.array_equal(got, want)
 
 
+def test_whole_numbers_are_read_as_intensities(tmp_path):
+    path = tmp_path / "ints.npy"
+    np.save(path, np.array([[1, 0], [0, -1]]))
+    got = load_actions(path)
+    assert got.dtype == np.float64 and np.array_equal(got, [[1.0, 0.0], [0.0, -1.0]])
+
+
 def test_a_single_row_file_is_one_action(tmp_path):
     path = tmp_path / "one.txt"
     path.write_text("0.5 -0.5\n")
@@ -56,9 +63,13 @@ def test_bad_actions_files_are_refused_with_what_is_wrong(tmp_path):
     with pytest.raises(ActionError, match=r"row 3: \[1.5, 0.0\] is not in \[-1, 1\]²"):
         load_actions(out)
     nan = tmp_path / "nan.csv"
-    nan.write_text("nan, 0\n")
-    with pytest.raises(ActionError, match="row 1"):
+    nan.write_text("0, 0\nnan, 0\n")
+    with pytest.raises(ActionError, match=r"row 2: \[nan, 0.0\]"):
         load_actions(nan)
+    pickled = tmp_path / "pickled.npy"  # a .npy of Python objects is never unpickled
+    np.save(pickled, np.array([[0.5, 0.5]], dtype=object), allow_pickle=True)
+    with pytest.raises(HadimError, match="cannot read actions"):
+        load_actions(pickled)
     edge = tmp_path / "edge.csv"
     edge.write_text("-1, 1\n")
     assert np.array_equal(load_actions(edge), [[-1.0, 1.0]])
