@@ -113,6 +113,11 @@ def test_subset_evaluation_is_deterministic_and_balanced() -> None:
     rows = evaluation_rows(zero, 6, None)
     assert rows.size == 6 and zero[rows].sum() == 2  # the small group gives its share away
     np.testing.assert_array_equal(evaluation_rows(zero, None, None), np.arange(10))
+    # As many rows as allowed: all of them, and nothing drawn from the learner's generator.
+    gen = np.random.default_rng(5)
+    before = gen.bit_generator.state
+    np.testing.assert_array_equal(evaluation_rows(zero, 10, gen), np.arange(10))
+    assert gen.bit_generator.state == before
 
 
 def test_learning_progress() -> None:
