@@ -7,6 +7,8 @@ are imported inside the commands), so `hadim --help` is instant.
 from __future__ import annotations
 
 import sys
+import traceback
+from pathlib import Path
 from types import SimpleNamespace
 from typing import Annotated, Any
 
@@ -25,7 +27,7 @@ from hadim_cli.commands import (
     world,
 )
 from hadim_cli.errors import HadimError
-from store.errors import StoreError
+from hadim_store.errors import StoreError
 
 _METAVARS = {"<bool>": "", "<int>": "N", "<int range>": "N", "<float>": "X", "<path>": "FILE"}
 
@@ -52,6 +54,30 @@ class HadimGroup(TyperGroup):
         super().__init__(*args, **kwargs)
         _plain_metavars(self)
 
+    def main(self, args: Any = None, prog_name: str | None = None,
+             complete_var: str | None = None, standalone_mode: bool = True,
+             **extra: Any) -> Any:
+        """click's standalone mode, but a usage error (an unknown command or option, a value
+        that does not parse) is one `error:` line and exit status 2, not a boxed usage."""
+        click = _click_exceptions()
+        if not standalone_mode:
+            return super().main(args, prog_name, complete_var, standalone_mode=False, **extra)
+        try:
+            code = super().main(args, prog_name, complete_var, standalone_mode=False, **extra)
+        except click.UsageError as exc:
+            message = " ".join(exc.format_message().split())
+            if message:  # empty: a group called alone, whose help is already printed
+                where = f" (see `{exc.ctx.command_path} --help`)" if exc.ctx else ""
+                typer.echo(f"error: {message}{where}", err=True)
+            sys.exit(2)
+        except click.ClickException as exc:
+            typer.echo(f"error: {' '.join(exc.format_message().split())}", err=True)
+            sys.exit(exc.exit_code)
+        except click.Abort:
+            typer.echo("aborted", err=True)
+            sys.exit(1)
+        sys.exit(code if isinstance(code, int) else 0)
+
     def invoke(self, ctx: typer.Context) -> Any:
         try:
             return super().invoke(ctx)
@@ -64,21 +90,51 @@ class HadimGroup(TyperGroup):
             typer.echo(f"error: {exc.format_message()}", err=True)
             ctx.exit(2)
         except StoreError as exc:
-            # The store is a separate package; its errors are a user's (bad file, unknown run).
-            typer.echo(f"error: {exc}", err=True)
+            if not _is_damage(exc):
+                # The store is a separate package; its errors are a user's (bad file, unknown
+                # run, a run in use).
+                typer.echo(f"error: {exc}", err=True)
+                ctx.exit(2)
+            _say_damaged(exc)
             ctx.exit(2)
         except Exception as exc:
-            if not _is_database_error(exc):
+            if not _is_damage(exc):
                 raise
-            # A damaged or unreachable database is not a bug of hadim: say so in one line.
-            from hadim_cli.runs import opened
-
-            where = opened[0] if opened else "the store"
-            reason = str(getattr(exc, "orig", exc)).splitlines()[0]
-            typer.echo(f"error: {where} cannot be read ({reason}): run `hadim store check "
-                       f"--store {where}`; docs/store.md, 'A damaged store', says what can be "
-                       f"saved", err=True)
+            _say_damaged(exc)
             ctx.exit(2)
+
+
+def _click_exceptions():
+    """click's exceptions as typer raises them: its own copy of click since typer 0.2x."""
+    try:
+        from typer._click import exceptions
+    except ImportError:  # an older typer, on click itself
+        from click import exceptions
+    return exceptions
+
+
+def _say_damaged(exc: BaseException) -> None:
+    """A store that cannot be read is not a bug of hadim: one line, the run named, no row
+    content (a driver's message may quote the bytes it could not decode)."""
+    from hadim_cli.runs import damage_line, reading, short_reason
+
+    typer.echo(f"error: {damage_line(reading[0] if reading else None, short_reason(exc))}",
+               err=True)
+
+
+def _is_damage(exc: BaseException) -> bool:
+    """A database driver's error, a stored value the store refuses to decode, or a value
+    the store's code cannot make sense of: what damaged bytes look like when read."""
+    from hadim_store.errors import CodecError
+
+    if isinstance(exc, CodecError) or _is_database_error(exc):
+        return True
+    if not isinstance(exc, ValueError | TypeError | KeyError | IndexError):
+        return False
+    import hadim_store
+
+    root = str(Path(hadim_store.__file__).resolve().parent)
+    return any(f.filename.startswith(root) for f in traceback.extract_tb(exc.__traceback__))
 
 
 def _is_database_error(exc: BaseException) -> bool:

@@ -721,11 +721,12 @@ class ControllerConfig:
     tool task: docs/results.md)."""
     commands: int = 9
     """Primitive actions the search tries: an n × n grid over the action space."""
-    horizon: int = 2
-    """Actions a searched sequence looks ahead."""
+    horizon: int = 1
+    """Actions a searched sequence looks ahead (1: each action valued by the estimated
+    actions to go from where it is predicted to end)."""
     beam: int = 8
     """Imagined states kept at each depth of the search."""
-    stall: int = 4
+    stall: int = 8
     """Actions a pursuit may go without a new low of its estimated actions to go."""
     clearance: float = 0.02
     """Gap (m) kept from a body no level of the chain moves (and the overlap allowed between
@@ -874,14 +875,17 @@ def parse_override(text: str) -> dict[str, Any]:
     return nested
 
 
-def read_toml(path: Path) -> dict[str, Any]:
+def read_toml(path: Path, what: str = "config file") -> dict[str, Any]:
+    """The TOML file `path`; `what` names it in a refusal ("config file", "task file")."""
     try:
         with path.open("rb") as fh:
             return tomllib.load(fh)
     except FileNotFoundError:
-        raise ConfigError(f"config file not found: {path}") from None
+        raise ConfigError(f"{what} not found: {path}") from None
+    except IsADirectoryError:
+        raise ConfigError(f"{what} {path} is a directory") from None
     except tomllib.TOMLDecodeError as exc:
-        raise ConfigError(f"config file {path} is not valid TOML: {exc}") from None
+        raise ConfigError(f"{what} {path} is not valid TOML: {exc}") from None
 
 
 def config_from_dict(values: Mapping[str, Any]) -> Config:

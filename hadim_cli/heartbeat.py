@@ -11,7 +11,7 @@ from contextlib import contextmanager
 def keep_alive(store, run_name: str, owner: str) -> Iterator[None]:
     """Refresh the run's lock from a thread: a long episode or evaluation must not let another
     process take the lock over as stale (no heartbeat for `store.lock_timeout` seconds)."""
-    from store.errors import RunLocked
+    from hadim_store.errors import RunLocked
 
     stop = threading.Event()
 

@@ -30,8 +30,9 @@ def _save(plt, fig, out: Path) -> None:
         plt.close(fig)
 
 
-def competence_figure(runs: Mapping[str, Sequence], out: Path, title: str = "") -> None:
-    """Score per task over iterations; several runs of one config give mean ± std."""
+def competence_figure(runs: Mapping[str, Sequence], out: Path, title: str = ""):
+    """Score per task over iterations; several runs of one config give mean ± std. Writes
+    `out` and returns the (closed) figure."""
     plt = _plt()
     by_task: dict[str, dict[int, list[float]]] = defaultdict(lambda: defaultdict(list))
     for evaluations in runs.values():
@@ -52,54 +53,69 @@ def competence_figure(runs: Mapping[str, Sequence], out: Path, title: str = "") 
     ax.set_title(title or f"competence ({len(runs)} run{'s' if len(runs) != 1 else ''})")
     fig.tight_layout()
     _save(plt, fig, out)
+    return fig
 
 
-_COLOURS = {"action": "#e6b800", "relative": "#3b7dd8", "absolute": "#3aa655"}
+def _space_colours(events: Sequence) -> dict[str, tuple]:
+    """One colour per space named in the timeline, the same in every lane and the legend."""
+    import matplotlib
+
+    names = sorted({n for e in events for n in (e.input_space, *e.context)})
+    palette = [*matplotlib.colormaps["tab20"].colors, *matplotlib.colormaps["tab20b"].colors]
+    return {name: palette[i % len(palette)] for i, name in enumerate(names)}
 
 
-def _space_colour(name: str) -> str:
-    if name == "action":
-        return _COLOURS["action"]
-    return _COLOURS["relative"] if "-" in name else _COLOURS["absolute"]
+def timeline_figure(events: Sequence, last_iteration: int, out: Path, title: str = ""):
+    """One lane per affordance (paper Fig. 4): its input space on the lane's first line, a
+    solid bar; its contexts on the lines above, hatched. Each space has one colour, named in
+    the legend: no text is drawn on the bars, so nothing overlaps however many changes H
+    goes through. Writes `out` and returns the (closed) figure."""
+    from matplotlib.patches import Patch
 
-
-def timeline_figure(events: Sequence, last_iteration: int, out: Path, title: str = "") -> None:
-    """One lane per affordance: its input, output and contexts over time (paper Fig. 4).
-    The input space is a solid bar with a dark edge, each context space a lighter hatched one."""
     plt = _plt()
     lanes: dict[int, list] = defaultdict(list)
     for e in events:
         lanes[e.affordance_id].append(e)
-    fig, ax = plt.subplots(figsize=(9, 0.8 + 0.9 * max(1, len(lanes))))
+    colours = _space_colours(events)
+    fig, ax = plt.subplots(figsize=(11, 1.4 + 0.7 * max(1, len(lanes))))
     labels = []
+    deleted = False
     for row, (aid, evs) in enumerate(sorted(lanes.items())):
         evs = sorted(evs, key=lambda e: e.iteration)
+        lines = 1 + max(len(e.context) for e in evs)
+        height = 0.8 / lines
         for k, e in enumerate(evs):
             if e.kind == "deleted":
-                ax.plot([e.iteration], [row], marker="x", color="k")
+                ax.plot([e.iteration], [row], marker="x", color="k", markersize=8)
+                deleted = True
                 continue
             end = evs[k + 1].iteration if k + 1 < len(evs) else last_iteration
-            spaces = [e.input_space, *e.context]
-            height = 0.8 / max(1, len(spaces))
-            for j, name in enumerate(spaces):
-                y = row - 0.4 + j * height
+            for j, name in enumerate([e.input_space, *e.context]):
                 is_input = j == 0
-                ax.barh(y, max(end - e.iteration, 1), left=e.iteration, height=height * 0.9,
-                        align="edge", color=_space_colour(name),
-                        alpha=1.0 if is_input else 0.45, hatch=None if is_input else "//",
+                ax.barh(row - 0.4 + j * height, max(end - e.iteration, 1), left=e.iteration,
+                        height=height * 0.9, align="edge", color=colours[name],
+                        hatch=None if is_input else "//",
                         edgecolor="black" if is_input else "white",
                         linewidth=0.8 if is_input else 0.5)
-                if end - e.iteration > 0.06 * max(last_iteration, 1):
-                    label = f"in: {name}" if is_input else f"ctx: {name}"
-                    ax.text(e.iteration + 5, y + height * 0.45, label, va="center", fontsize=7)
-        labels.append(f"A{aid}: → {evs[0].output_space}")
+        labels.append(f"A{aid} → {evs[0].output_space}")
     ax.set_yticks(range(len(labels)), labels)
+    ax.set_ylim(-0.6, max(len(labels), 1) - 0.4)
     ax.set_xlim(0, max(last_iteration, 1))
     ax.set_xlabel("iteration")
-    ax.set_title((f"{title}\n" if title else "") + "input: solid, context: hatched; yellow: "
-                 "action, blue: relative, green: absolute spaces", fontsize=9)
+    ax.set_ylabel("affordance (→ its output space)")
+    ax.grid(axis="x", alpha=0.3)
+    handles = [Patch(facecolor="white", edgecolor="black", label="input space (solid)"),
+               Patch(facecolor="white", edgecolor="grey", hatch="//",
+                     label="context space (hatched)")]
+    if deleted:
+        handles.append(ax.plot([], [], "x", color="k", label="deleted")[0])
+    handles += [Patch(facecolor=c, edgecolor="black", label=n) for n, c in colours.items()]
+    ax.legend(handles=handles, loc="upper left", bbox_to_anchor=(1.01, 1.0), fontsize=8,
+              title="spaces", title_fontsize=9, frameon=False)
+    ax.set_title(title or "affordance timeline")
     fig.tight_layout()
     _save(plt, fig, out)
+    return fig
 
 
 def comparison_figure(groups: Mapping[str, Sequence[Sequence]], out: Path,

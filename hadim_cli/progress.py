@@ -135,9 +135,14 @@ def summary(store, run: str, start: int, seconds: float, store_option: str | Non
         latest[e.task] = (e.score, e.iteration)
     n_aff = sum(1 for s in store.stats(run, upto_iteration=record.iterations)
                 if s.iteration == record.iterations)
+    from hadim_cli.commands.driver import further_command, resume_command
+    from hadim_store.records import RunStatus
+
     where = store_location(store_option)
-    size = _store_size(where)
+    size = _store_size(store, where)
     flag = f" --store {where}" if store_option else ""
+    go_on = (further_command(run, record.iterations, store_option)
+             if record.status is RunStatus.FINISHED else resume_command(run, store_option))
     done = record.iterations - start
     rate = f", {done / seconds:.0f} iterations/s" if seconds > 0 and done > 0 else ""
     scores = "; ".join(f"{task} {score:.3f} at {it}" for task, (score, it) in latest.items())
@@ -151,11 +156,14 @@ def summary(store, run: str, start: int, seconds: float, store_option: str | Non
         f"    hadim runs show {run}{flag}",
         f"    hadim affordances {run}{flag}",
         f"    hadim plot {run} --out {run}.png{flag}",
-        f"    hadim resume {run} --iterations {record.iterations * 2}{flag}",
+        f"    {go_on}",
     ])
 
 
-def _store_size(where: str) -> int | None:
+def _store_size(store, where: str) -> int | None:
+    """The store file's size once its write-ahead log is checkpointed into it: what it
+    occupies when no process has it open (the `-wal` file then goes)."""
     if "://" in where or not Path(where).is_file():
         return None
-    return sum(p.stat().st_size for p in (Path(where), Path(f"{where}-wal")) if p.exists())
+    store.flush_wal()
+    return Path(where).stat().st_size

@@ -7,6 +7,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 from rich.console import Console
 from rich.table import Table
+from rich.text import Text
 
 from hadim_cli.learner.competence import split_zero
 
@@ -106,12 +107,17 @@ def render_h_table(console: Console, rows: list[dict[str, Any]], iteration: int)
                       str(r["created_at"]), f"{r['competence']:.3f}", str(r["data"]),
                       str(r["effect"]), str(r["goals"]))
     console.print(table)
-    console.print("p_A, on the objects of the push-object task's scene (green: pushable, red: "
-                  "fixed):", markup=False, highlight=False)
+    console.print("p_A on the push-object scene's objects (green: pushable, red: fixed):",
+                  markup=False, highlight=False)
+    # A grid: a long list of objects wraps under itself, indented past "A3 accepts".
+    accepts = Table.grid(padding=(0, 1))
+    accepts.add_column(no_wrap=True)
+    accepts.add_column()
     for r in rows:
         if r["accepts"] is not None:
-            console.print(f"  A{r['id']} accepts {', '.join(r['accepts']) or 'nothing'}",
-                          markup=False, highlight=False)
+            accepts.add_row(Text(f"  A{r['id']} accepts"),
+                            Text(", ".join(r["accepts"]) or "nothing"))
+    console.print(accepts)
 
 
 def render_p_a(console: Console, verdicts: list, iteration: int) -> None:
@@ -165,21 +171,47 @@ def event_text(kind: str, detail: dict[str, Any]) -> str:
 
 
 def render_timeline(console: Console, events: list) -> None:
+    """Every change of H, a row each. Space names are never cut: a narrow terminal (or a
+    pipe, 80 columns) gets the affordance's id inside the event's cell instead of a column
+    of its own, and the table keeps its borders."""
+    table = _timeline_table(events, own_id_column=True)
+    if least_width(table) > console.width:
+        table = _timeline_table(events, own_id_column=False)
+    console.print(table)
+
+
+def least_width(table: Table) -> int:
+    """The narrowest a bordered table can be drawn without cutting a word (a line, in a
+    column that does not wrap): rich's own measure leaves the borders out."""
+    from rich.cells import cell_len
+
+    width = len(table.columns) + 1  # the vertical borders
+    for column in table.columns:
+        cells = [str(column.header), *map(str, column.cells)]
+        parts = [p for c in cells for p in (c.splitlines() if column.no_wrap else c.split())]
+        width += max(max(map(cell_len, parts), default=0), column.min_width or 0) + 2
+    return width
+
+
+def _timeline_table(events: list, own_id_column: bool) -> Table:
     table = Table(title=f"affordance timeline ({len(events)} events)")
-    table.add_column("iter.", justify="right")
-    table.add_column("aff.", no_wrap=True)
+    table.add_column("iter.", justify="right", no_wrap=True)
+    if own_id_column:
+        table.add_column("aff.", no_wrap=True)
     texts = [event_text(e.kind, e.detail) for e in events]
+    if not own_id_column:
+        texts = [f"A{e.affordance_id} {t}" for e, t in zip(events, texts, strict=True)]
     # As wide as its longest word: a table may wrap between the changed spaces, not inside one.
-    table.add_column("event", min_width=max((len(w) for t in texts for w in t.split()),
-                                            default=5))
+    table.add_column("event" if own_id_column else "aff. event",
+                     min_width=max((len(w) for t in texts for w in t.split()), default=5))
     table.add_column("input → output", no_wrap=True)
     table.add_column("context", no_wrap=True)
-    table.add_column("C", justify="right", min_width=5)
+    table.add_column("C", justify="right", no_wrap=True)
     for e, text in zip(events, texts, strict=True):
         comp = "" if e.competence is None else f"{e.competence:.3f}"
-        table.add_row(str(e.iteration), f"A{e.affordance_id}", text,
-                      f"{e.input_space}\n→ {e.output_space}", _names(e.context), comp)
-    console.print(table)
+        table.add_row(str(e.iteration), *((f"A{e.affordance_id}",) if own_id_column else ()),
+                      text, f"{e.input_space}\n→ {e.output_space}", _names(e.context), comp)
+    return table
 
 
 def first_push_summary(pushes: list[FirstPush]) -> str:
@@ -216,18 +248,30 @@ def render_eval(console: Console, result: TaskResult, iteration: int) -> None:
             caption += f"; a push moved the object {100 * path / moves:.1f} cm"
         if pushed:
             caption += "\n" + first_push_summary([p.first_push for p in pushed])
+    table = _points_table(result, iteration, caption, with_start=True)
+    if least_width(table) > console.width:  # 80 columns, or a pipe: the start goes
+        table = _points_table(result, iteration, caption, with_start=False)
+    console.print(table)
+
+
+def _points_table(result: TaskResult, iteration: int, caption: str | None,
+                  with_start: bool) -> Table:
     table = Table(title=f"{result.task} at iteration {iteration}: score {result.score:.3f}",
                   caption=caption)
-    for col in ("#", "target", "start", "final", "error", "actions", "trips", "robot only",
-                "note"):
-        table.add_column(col)
-    for i, p in enumerate(points):
+    table.add_column("#", justify="right", no_wrap=True)
+    for col in ("target", *(("start",) if with_start else ()), "final"):
+        table.add_column(col, no_wrap=True)
+    for col in ("error", "actions", "trips"):
+        table.add_column(col, justify="right", no_wrap=True)
+    table.add_column("robot only", justify="right")
+    table.add_column("note")
+    for i, p in enumerate(result.points):
         def fmt(v):
-            return f"({v[0]:+.2f}, {v[1]:+.2f})"
+            return f"{v[0]:+.2f} {v[1]:+.2f}"
 
         note = "robot touched target" if p.contact_failed else (
             "no affordance" if p.affordance_id < 0 else f"A{p.affordance_id}")
-        table.add_row(str(i), fmt(p.target), fmt(p.start), fmt(p.final), f"{p.error:.3f}",
-                      str(p.actions), str(p.trips),
+        table.add_row(str(i), fmt(p.target), *((fmt(p.start),) if with_start else ()),
+                      fmt(p.final), f"{p.error:.3f}", str(p.actions), str(p.trips),
                       "–" if p.robot_only is None else str(p.robot_only), note)
-    console.print(table)
+    return table

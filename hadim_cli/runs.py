@@ -7,6 +7,7 @@ checkpoint) and back.
 
 from __future__ import annotations
 
+import enum
 import os
 import socket
 from collections.abc import Callable
@@ -19,8 +20,8 @@ import numpy as np
 
 from hadim_cli.config import Config, stored_config
 from hadim_cli.errors import HadimError
-from store.api import Store
-from store.records import (
+from hadim_store.api import Store
+from hadim_store.records import (
     AffordanceEvent,
     AffordanceStat,
     EpisodeWrite,
@@ -41,8 +42,25 @@ STORE_ENV = "HADIM_STORE"
 SNAPSHOT_ENV = "HADIM_SNAPSHOT_EVERY"
 """One checkpoint in this many is a full snapshot, the others deltas (store/deltas.py)."""
 DEFAULT_STORE = "hadim.sqlite"
+TARGET_KEY = "target"
+"""Key, in an episode's `extra`, of the iterations the run was being driven to."""
+HIERARCHY_KEY = "hierarchy"
+"""Key, in an episode's `extra`, of H's rows at its end (`reports.affordance_rows`)."""
+DEFAULT_ITERATIONS = 4000
+"""What `hadim train` runs, and `hadim resume` continues a run to when it has no target."""
 STATE_FORMAT = 2
 READABLE_STATE_FORMATS = (1, 2)
+
+
+class RunKind(enum.StrEnum):
+    """What drives a run: the paper's learner, or a reinforcement-learning baseline."""
+
+    LEARNER = "learner"
+    BASELINE = "baseline"
+
+
+def run_kind(run: RunRecord) -> RunKind:
+    return RunKind.BASELINE if run.config.get("kind") == "baseline" else RunKind.LEARNER
 
 
 def store_location(option: str | None) -> str:
@@ -53,24 +71,108 @@ opened: list[str] = []
 """The store this process opened last: named in the one-line message of a database error."""
 
 
-def open_store(option: str | None, *, create: bool = True, writes: bool = True) -> Store:
-    """The store a command names; one that `writes` first has its file checked (SQLite's
-    `PRAGMA quick_check`), so that a damaged store is refused rather than written into."""
-    from store import engine
+reading: list[str] = []
+"""The run this process reads: named in the one line that a damaged row of it gives."""
+file_damage: list[str] = []
+"""SQLite's findings (`PRAGMA quick_check`) on the store this process opened to read."""
+
+
+def open_store(option: str | None, *, create: bool = True, writes: bool = True,
+               run: str | None = None) -> Store:
+    """The store a command names (about `run`, if it names one). Its file is checked first
+    (SQLite's `PRAGMA quick_check`, well under a second): one that `writes` is refused if
+    damaged, rather than written into; for one that only reads, the findings are kept for
+    `chosen_run` and `damaged_runs`."""
+    from hadim_store import engine
 
     where = store_location(option)
     opened[:] = [where]
+    reading.clear()
+    file_damage.clear()
     is_file = "://" not in where
     if not create and is_file and not Path(where).exists():
-        raise HadimError(f"no store at {where} (train a run first, or pass --store)")
-    if writes and is_file and Path(where).is_file() and Path(where).stat().st_size > 0:
+        raise HadimError(f"no store at {where}: start a run with `hadim train`, or pass --store")
+    if is_file and Path(where).is_dir():
+        raise HadimError(f"{where} is a directory, not a store file")
+    if is_file and Path(where).is_file() and Path(where).stat().st_size > 0:
         engine.check_sqlite_file(Path(where), create=create)
-        engine.require_intact(Path(where))
+        file_damage[:] = engine.quick_check(Path(where))
+        if writes and file_damage:  # writing would spread the damage
+            raise HadimError(damage_line(run, " ".join(file_damage[0].split()), writes=True))
     return Store.open(where, create=create, snapshot_every=snapshot_every())
 
 
+def chosen_run(store: Store, name: str | None) -> RunRecord:
+    """The run a command names, or (no name) the store's most recently updated one, said on
+    stderr. In a file SQLite finds damaged, the run is first read back as `hadim store check`
+    reads it: a damaged run is one line, never a silent answer."""
+    from hadim_cli.progress import say
+
+    if name is None:
+        records = store.list_runs()
+        if not records:
+            raise HadimError(f"no run in {store_location(opened[0] if opened else None)} yet: "
+                             "start one with `hadim train`")
+        record = max(records, key=lambda r: r.updated_at)  # ties: the first created
+        say(f"run {record.name} (the store's most recent; name a run to read another)")
+    else:
+        record = store.get_run(name)
+    reading[:] = [record.name]
+    if file_damage:
+        reason = unreadable(store, record.name)
+        if reason is not None:
+            raise HadimError(damage_line(record.name, reason))
+        say(f"warning: {opened[0]} is damaged, though run {record.name} reads back whole: "
+            f"`hadim store check --store {opened[0]}` says which runs can be read")
+    return record
+
+
+def unreadable(store: Store, name: str) -> str | None:
+    """Why run `name` cannot be read back whole (None if it can): its record, D, timeline,
+    statistics, evaluations and every checkpoint, read as `hadim store check` reads them."""
+    try:
+        store.get_run(name)
+        store.dataset_sha256(name)
+        store.events(name)
+        store.stats(name)
+        store.evaluations(name)
+        for it in store.checkpoint_iterations(name):
+            store.checkpoint(name, it)
+    except Exception as exc:  # noqa: BLE001 — any failure to read it back is damage
+        return short_reason(exc)
+    return None
+
+
+def short_reason(exc: BaseException, limit: int = 60) -> str:
+    """The first line of a database or decoding error, without the row content some carry
+    (SQLite's "Could not decode ... with text '…'"), at most `limit` characters."""
+    import re
+
+    text = str(getattr(exc, "orig", None) or exc).strip().splitlines()
+    line = re.sub(r"\s+with text\s+.*$", "", text[0] if text else type(exc).__name__)
+    line = re.sub(r"\s*\(char \d+\)$", "", line)
+    return line if len(line) <= limit else line[:limit - 1] + "…"
+
+
+def damage_line(run: str | None, reason: str, *, writes: bool = False, limit: int = 193) -> str:
+    """The one line (after `error: `, at most `limit` characters when the store's name
+    allows) that a damaged store gives a command: the run, SQLite's or the decoder's reason
+    (shortened, never the row's content), and the command that says what can be saved."""
+    where = opened[0] if opened else "the store"
+    if run is None:
+        head = "the store is damaged"
+    elif writes:
+        head = f"run {run} untouched: the store is damaged"
+    else:
+        head = f"run {run} cannot be read: the store is damaged"
+    tail = f"; see `hadim store check --store {where}`"
+    room = max(limit - len(head) - len(tail) - 3, 12)
+    short = reason if len(reason) <= room else reason[:room - 1] + "…"
+    return f"{head} ({short}){tail}"
+
+
 def snapshot_every() -> int:
-    from store.deltas import DEFAULT_SNAPSHOT_EVERY
+    from hadim_store.deltas import DEFAULT_SNAPSHOT_EVERY
 
     raw = os.environ.get(SNAPSHOT_ENV, "").strip()
     if not raw:
@@ -167,7 +269,11 @@ def _store_event(e: Event) -> AffordanceEvent:
                            e.contexts, e.competence, dict(e.detail))
 
 
-def episode_write(session: Session, log: EpisodeLog) -> EpisodeWrite:
+def episode_write(session: Session, log: EpisodeLog, target: int | None = None) -> EpisodeWrite:
+    """What the store keeps of one episode; `target`, the iterations the run is being driven
+    to, goes into its `extra` (what `hadim resume RUN` continues to)."""
+    from hadim_cli.reports import affordance_rows
+
     d = session.learner.dataset
     stop = log.stop
     events = [_store_event(e) for le in log.learning for e in le.events]
@@ -185,6 +291,10 @@ def episode_write(session: Session, log: EpisodeLog) -> EpisodeWrite:
          "affordance": le.affordance_id, "goal": list(le.goal), "competence": le.competence,
          "drawn": le.drawn.value, "fallbacks": [f.value for f in le.fallbacks]}
         for le in log.learning]}
+    # H as `hadim affordances` shows it, kept so that it reads H without restoring the session.
+    extra[HIERARCHY_KEY] = affordance_rows(session)
+    if target is not None:
+        extra[TARGET_KEY] = target
     return EpisodeWrite(
         index=log.index, first_iteration=log.start,
         actions=d.actions[log.start:stop].copy(), contexts=d.contexts[log.start:stop].copy(),
@@ -247,7 +357,7 @@ def train(store: Store | None, run: str | None, session: Session, total: int, *,
 
     def after_episode(log: EpisodeLog) -> bool:
         if store is not None and run is not None:
-            store.write_episode(run, episode_write(session, log), owner=owner)
+            store.write_episode(run, episode_write(session, log, total), owner=owner)
         it = session.iteration
         if eval_every and it % eval_every == 0 and tasks:
             for name, result in evaluate_tasks(session, tasks).items():
@@ -265,10 +375,44 @@ def train(store: Store | None, run: str | None, session: Session, total: int, *,
     return scores
 
 
+def target_iterations(store: Store, run: RunRecord, default: int) -> int:
+    """The iterations `run` was last driven to (by `train`, `resume`), as its last stored
+    episode records them; `default` for a run without such a record (none stored yet, or
+    stored by an older hadim)."""
+    last = store.episode_extra(run.name)
+    target = None if last is None else last[1].get(TARGET_KEY)
+    return target if isinstance(target, int) and target > 0 else default
+
+
+def stored_hierarchy(store: Store, run: RunRecord, at: int | None
+                     ) -> tuple[list[dict[str, Any]], int] | None:
+    """H's rows (`reports.affordance_rows`) and their iteration, as stored with the last
+    episode at or before `at`: what `hadim affordances RUN` shows, read without the learner.
+    None when they must be computed from a restored session (episodes from an older hadim)."""
+    found = store.episode_extra(run.name, at)
+    if found is None:
+        if at is not None and at > 0 and run.iterations > 0:
+            raise HadimError(f"run {run.name} has no checkpoint at or before iteration {at}")
+        return [], 0  # nothing trained yet: H is empty
+    iteration, extra = found
+    rows = extra.get(HIERARCHY_KEY)
+    return None if rows is None else (rows, iteration)
+
+
 def new_run(store: Store, config: Config, seed: int, name: str | None) -> RunRecord:
     return store.create_run(config=config.to_dict(), seed=seed, name=name,
                             versions=package_versions())
 
 
+
+
 def finish_status(session: Session, total: int) -> RunStatus:
     return RunStatus.FINISHED if session.iteration >= total else RunStatus.PAUSED
+
+
+def damaged_runs(store: Store, records: list[RunRecord]) -> list[str]:
+    """The runs that cannot be read back whole, looked for only in a file SQLite finds
+    damaged (`open_store`): a sound file costs nothing here."""
+    if not file_damage:
+        return []
+    return [r.name for r in records if unreadable(store, r.name) is not None]

@@ -357,7 +357,7 @@ def time_restore(args: argparse.Namespace) -> None:
     import torch._dynamo  # noqa: F401
 
     from hadim_cli import runs
-    from store import SchemaError, Store
+    from hadim_store import SchemaError, Store
 
     t1, c1 = time.perf_counter(), time.process_time()
     try:
@@ -413,7 +413,7 @@ def _digest(*arrays) -> str:
 
     import numpy as np
 
-    from store.api import _DIGEST_PREFIX, DatasetArrays
+    from hadim_store.api import _DIGEST_PREFIX, DatasetArrays
 
     digest = hashlib.sha256(_DIGEST_PREFIX)
     for key, array in zip(DatasetArrays._fields, arrays, strict=True):
@@ -429,7 +429,7 @@ def delta_bytes(args: argparse.Namespace) -> None:
     run's checkpoint before it (p_A's replay items apart: the part a full replay rewrote)."""
     from datetime import UTC
 
-    from store import SchemaError, Store, codecs, deltas
+    from hadim_store import SchemaError, Store, codecs, deltas
 
     try:
         opened = Store.open(args.store, create=False, upgrade=False)

@@ -8,26 +8,26 @@ from __future__ import annotations
 import importlib
 from typing import Any
 
-# Submodules are imported on first use: `import store.errors` must stay cheap (the CLI's
-# `--help` imports it), while `store.api` pulls in SQLAlchemy.
+# Submodules are imported on first use: `import hadim_store.errors` must stay cheap (the CLI's
+# `--help` imports it), while `hadim_store.api` pulls in SQLAlchemy.
 _WHERE = {
-    "DatasetArrays": "store.api", "Store": "store.api", "upgrade_store": "store.api",
-    "Upgrade": "store.schema",
-    "CodecError": "store.errors", "RunLocked": "store.errors", "SchemaError": "store.errors",
-    "StoreError": "store.errors", "UnknownRun": "store.errors",
-    "SCHEMA_VERSION": "store.migrations",
-    "AffordanceEvent": "store.records", "AffordanceStat": "store.records",
-    "Checkpoint": "store.records", "EpisodeRecord": "store.records",
-    "EpisodeWrite": "store.records", "Evaluation": "store.records",
-    "InterestRegion": "store.records", "LockInfo": "store.records",
-    "RunRecord": "store.records", "RunStatus": "store.records",
+    "DatasetArrays": "api", "Store": "api", "upgrade_store": "api",
+    "Upgrade": "schema",
+    "CodecError": "errors", "RunLocked": "errors", "SchemaError": "errors",
+    "StoreError": "errors", "UnknownRun": "errors",
+    "SCHEMA_VERSION": "migrations",
+    "AffordanceEvent": "records", "AffordanceStat": "records",
+    "Checkpoint": "records", "EpisodeRecord": "records",
+    "EpisodeWrite": "records", "Evaluation": "records",
+    "InterestRegion": "records", "LockInfo": "records",
+    "RunRecord": "records", "RunStatus": "records",
 }
 
 
 def __getattr__(name: str) -> Any:
     if name in _WHERE:
-        return getattr(importlib.import_module(_WHERE[name]), name)
-    raise AttributeError(f"module 'store' has no attribute {name!r}")
+        return getattr(importlib.import_module(f"{__name__}.{_WHERE[name]}"), name)
+    raise AttributeError(f"module 'hadim_store' has no attribute {name!r}")
 
 
 __all__ = [

@@ -19,10 +19,10 @@ from sqlalchemy import URL, Engine, Select, delete, func, insert, literal, selec
 from sqlalchemy.exc import IntegrityError
 from sqlalchemy.orm import Session, sessionmaker
 
-from store import codecs, deltas, locking
-from store import engine as engines
-from store.errors import RunLocked, StoreError, UnknownRun
-from store.models import (
+from hadim_store import codecs, deltas, locking
+from hadim_store import engine as engines
+from hadim_store.errors import RunLocked, StoreError, UnknownRun
+from hadim_store.models import (
     AffordanceEventRow,
     AffordanceStatRow,
     CheckpointItem,
@@ -33,7 +33,7 @@ from store.models import (
     Meta,
     Run,
 )
-from store.records import (
+from hadim_store.records import (
     AffordanceEvent,
     AffordanceStat,
     Checkpoint,
@@ -45,7 +45,7 @@ from store.records import (
     RunRecord,
     RunStatus,
 )
-from store.schema import Upgrade
+from hadim_store.schema import Upgrade
 
 DEFAULT_LOCK_TIMEOUT_S = 60.0
 _NAME_RE = re.compile(r"[A-Za-z0-9][A-Za-z0-9._-]{0,63}")
@@ -161,7 +161,7 @@ class Store:
         it is, unstamped): opening then writes nothing to the schema. An older schema is
         migrated; a newer one is refused. ``compress`` deflates new arrays with zlib.
         One checkpoint in ``snapshot_every`` that this object writes for a run is a full
-        snapshot, the others deltas (1: all full); see :mod:`store.deltas`.
+        snapshot, the others deltas (1: all full); see :mod:`hadim_store.deltas`.
         """
         resolved, where = _locate(url, create=create)
         engine = engines.make_engine(resolved)
@@ -193,6 +193,14 @@ class Store:
 
     def __repr__(self) -> str:
         return f"Store({self._where!r})"
+
+    def flush_wal(self) -> None:
+        """SQLite: move the write-ahead log's pages into the database file (a WAL checkpoint),
+        so that the file's size is the store's; nothing on other backends."""
+        if not engines.is_sqlite(self._engine.url) or engines.sqlite_file(self._engine.url) is None:
+            return
+        with self._engine.connect() as conn:
+            conn.exec_driver_sql("PRAGMA wal_checkpoint(TRUNCATE)")
 
     @contextmanager
     def session_scope(self, *, write: bool = True) -> Iterator[Session]:
@@ -422,6 +430,21 @@ class Store:
             if upto is not None:
                 query = query.where(Episode.first_iteration + Episode.n_iterations <= upto)
             return [_episode_record(row) for row in session.scalars(query)]
+
+    def episode_extra(self, name: str, upto_iteration: int | None = None
+                      ) -> tuple[int, dict[str, Any]] | None:
+        """The last stored episode's end iteration and ``extra`` (with ``upto_iteration=t``, the
+        last finished by iteration t), without reading its arrays; None if there is none."""
+        upto = _check_iteration(upto_iteration, "upto_iteration")
+        end = Episode.first_iteration + Episode.n_iterations
+        with self.session_scope(write=False) as session:
+            query = (select(end, Episode.extra_json)
+                     .where(Episode.run_id == _run_row(session, name).id)
+                     .order_by(Episode.episode_index.desc()).limit(1))
+            if upto is not None:
+                query = query.where(end <= upto)
+            row = session.execute(query).first()
+        return None if row is None else (int(row[0]), codecs.decode_json(row[1]))
 
     def dataset(self, name: str, upto_iteration: int | None = None) -> DatasetArrays:
         """D: every stored iteration's action, context and outcome, concatenated in order.

@@ -2,7 +2,7 @@
 
 No pickle, ever: arrays are written and read with ``allow_pickle=False`` and object dtypes
 are refused both ways, so a store file received from someone else cannot run code. Every
-failure is a :class:`~store.errors.CodecError`.
+failure is a :class:`~hadim_store.errors.CodecError`.
 """
 
 from __future__ import annotations
@@ -16,7 +16,7 @@ from typing import Any
 
 import numpy as np
 
-from store.errors import CodecError
+from hadim_store.errors import CodecError
 
 NPY = "npy"
 NPY_ZLIB = "npy+zlib"

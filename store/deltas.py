@@ -19,7 +19,7 @@ what changes everywhere at once — p_A's weights and optimiser moments — so a
 when the deltas outweigh one" would snapshot at nearly every episode.)
 
 This module holds the pure parts: diffing against the previous state, and rebuilding a value
-from its chain. `store.api` owns the transactions.
+from its chain. `hadim_store.api` owns the transactions.
 """
 
 from __future__ import annotations
@@ -31,8 +31,8 @@ from typing import Any
 
 import numpy as np
 
-from store import codecs
-from store.errors import StoreError
+from hadim_store import codecs
+from hadim_store.errors import StoreError
 
 DEFAULT_SNAPSHOT_EVERY = 50
 """One checkpoint in this many is a full snapshot (bounds what a restore reads)."""

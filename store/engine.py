@@ -15,8 +15,8 @@ from sqlalchemy.engine import URL, make_url
 from sqlalchemy.exc import ArgumentError, DBAPIError, NoSuchModuleError, OperationalError
 from sqlalchemy.pool import StaticPool
 
-from store import migrations, schema
-from store.errors import DamagedStore, SchemaError, StoreError
+from hadim_store import migrations, schema
+from hadim_store.errors import DamagedStore, SchemaError, StoreError
 
 BUSY_TIMEOUT_S = 10.0
 _SQLITE_HEADER = b"SQLite format 3\x00"
@@ -123,8 +123,9 @@ def require_intact(path: Path) -> None:
 
 def _damaged(path: Path, finding: str) -> DamagedStore:
     """The refusal of a store SQLite finds damaged (its `finding`), before anything is written."""
-    return DamagedStore(f"{path} is damaged ({finding}); nothing was written: run `hadim store "
-                        f"check --store {path}` and see docs/store.md, 'A damaged store'")
+    short = finding if len(finding) <= 60 else finding[:59] + "…"
+    return DamagedStore(f"the store is damaged ({short}); nothing was written: see `hadim "
+                        f"store check --store {path}`")
 
 
 def make_engine(url: URL) -> Engine:

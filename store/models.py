@@ -1,7 +1,7 @@
 """The store's tables as a SQLAlchemy 2 ORM, and nothing else.
 
 Every table below ``runs`` cascades on delete from it. Arrays are ``.npy`` bytes (see
-``store.codecs``), structures are JSON text, times are naive UTC.
+``hadim_store.codecs``), structures are JSON text, times are naive UTC.
 """
 
 from __future__ import annotations

@@ -1,10 +1,11 @@
 """Where a store's schema stands, and moving it to this hadim's with alembic.
 
 A store's version is ``meta.schema_version``; since alembic, the store also has alembic's
-version table with the matching revision id (``store.migrations``). A store from before alembic
-has no version table: it is stamped with the revision of its ``schema_version`` first, then
-upgraded like any other. Reading the state needs plain SQL only; alembic is imported when a
-store is created or upgraded, not when one of the current schema is opened.
+version table with the matching revision id (``hadim_store.migrations``). A store from
+before alembic has no version table: it is stamped with the revision of its
+``schema_version`` first, then upgraded like any other. Reading the state needs plain SQL
+only; alembic is imported when a store is created or upgraded, not when one of the current
+schema is opened.
 """
 
 from __future__ import annotations
@@ -16,9 +17,9 @@ from dataclasses import dataclass
 
 from sqlalchemy import Connection, inspect, select, text
 
-from store import migrations
-from store.errors import SchemaError
-from store.models import Base, Meta
+from hadim_store import migrations
+from hadim_store.errors import SchemaError
+from hadim_store.models import Base, Meta
 
 
 @dataclass(frozen=True)

@@ -9,7 +9,7 @@ import pytest
 from typer.testing import CliRunner
 
 from hadim_cli.app import app
-from store.api import Store
+from hadim_store.api import Store
 
 SMALL = ("--set", "world.episode_length=25", "--set", 'evaluation.tasks=["move-robot"]')
 

@@ -13,7 +13,7 @@ from typer.testing import CliRunner
 
 from hadim_cli.app import app
 from hadim_cli.config import configs_dir
-from store.api import Store
+from hadim_store.api import Store
 
 PNG = b"\x89PNG\r\n\x1a\n"
 SMALL = ("--set", "world.episode_length=25", "--set", 'evaluation.tasks=["move-robot"]')

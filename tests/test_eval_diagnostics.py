@@ -116,7 +116,7 @@ def test_bad_pose_tasks_are_refused(tmp_path):
 
 
 def test_an_exact_level_is_a_diagnostic_not_a_stored_score(runner, store):
-    from store import Store
+    from hadim_store import Store
 
     with Store.open(store, create=False) as st:
         before = len(st.evaluations("run-1"))

@@ -10,6 +10,7 @@ from __future__ import annotations
 import io
 import json
 import os
+import re
 import signal
 import sqlite3
 import subprocess
@@ -23,7 +24,7 @@ import pytest
 
 from hadim_cli import runs
 from hadim_cli.app import app
-from store.api import Store
+from hadim_store.api import Store
 
 SEED = 5
 # Long enough for a non-empty H (the first affordances appear at ~24 iterations); runs go in
@@ -279,7 +280,7 @@ def test_sigkill_then_resume_recovers(runner, tmp_path, reference):
 
 def test_ctrl_c_pauses_after_the_episode(runner, tmp_path, reference):
     store = tmp_path / "s.sqlite"
-    proc = start_training(store, tmp_path)
+    proc = start_training(store, tmp_path, iterations=N_PROC)
     try:
         wait_for_iterations(store, "run-1", 100, proc)
         proc.send_signal(signal.SIGINT)
@@ -287,9 +288,12 @@ def test_ctrl_c_pauses_after_the_episode(runner, tmp_path, reference):
     finally:
         if proc.poll() is None:
             proc.kill()
-    assert proc.returncode == 0, err
+    assert proc.returncode == 130, err  # a paused run is told from a finished one
     assert "Traceback" not in err
-    assert "hadim resume run-1 --iterations 4000" in err
+    # One command to continue, the same in the pause line and in the summary's "next".
+    hint = f"hadim resume run-1 --store {store}"
+    assert f"continue with: {hint}\n" in err and f"    {hint}\n" in err, err
+    assert len(set(re.findall(r"hadim resume [^\n]*", err))) == 1, err
     assert out.strip() == "run-1"
 
     info = show(runner, store, "run-1")
@@ -297,9 +301,11 @@ def test_ctrl_c_pauses_after_the_episode(runner, tmp_path, reference):
     assert info["iterations"] % 100 == 0  # stopped at an episode's end
     with Store.open(store, create=False) as st:
         assert st.get_run("run-1").lock is None
-    ok(runner, "resume", "run-1", "--iterations", N_PROC, "--eval-every", 0, "--store", store)
+    # Without --iterations: to the iterations it was started for.
+    ok(runner, "resume", "run-1", "--eval-every", 0, "--store", store)
     info = show(runner, store, "run-1")
-    assert info["status"] == "finished" and info["dataset_sha256"] == reference["sha"]
+    assert info["status"] == "finished" and info["iterations"] == N_PROC
+    assert info["dataset_sha256"] == reference["sha"]
     assert_contiguous(store, "run-1", N_PROC)
 
 
@@ -409,7 +415,7 @@ def test_the_lock_is_kept_alive_through_a_long_step(runner, tmp_path, monkeypatc
     process take the lock over as stale: the trainer's heartbeat thread keeps it fresh."""
     import threading
 
-    from store.errors import RunLocked
+    from hadim_store.errors import RunLocked
 
     # Margins wide enough for a loaded CI machine: beats every timeout/4 = 0.5 s, one slow
     # step of 2.5 × timeout; the thief polls throughout.
@@ -478,7 +484,7 @@ def test_a_second_ctrl_c_aborts_the_episode(runner, tmp_path, monkeypatch):
     monkeypatch.setattr(TrainingActuator, "act", act)
     assert result.exit_code == 130, (result.stderr, result.exception)
     assert "Traceback" not in result.output
-    assert f"aborted at iteration 20; continue with: hadim resume run-1 --iterations 60 " \
+    assert f"aborted at iteration 20 of 60; continue with: hadim resume run-1 " \
            f"--store {store}" in result.stderr
     info = show(runner, store, "run-1")
     assert info["status"] == "paused" and info["iterations"] == 20

@@ -121,7 +121,7 @@ def test_restore_is_timed_from_the_asked_checkpoint_and_writes_nothing(sampled, 
     assert out["then_cpu_s"] > 0 and out["iterations_per_cpu_s"] > 0
     assert state() == before
     # The rows it made are the run's own rows from 200 to 300 (the same code, resumed).
-    from store import Store
+    from hadim_store import Store
 
     with Store.open(sampled, create=False) as store:
         assert out["dataset_sha256"] == store.dataset_sha256("long", 300)

@@ -16,7 +16,7 @@ from hadim_cli import runs
 from hadim_cli.app import app
 from hadim_cli.config import LEGACY_DEFAULTS, load_config
 from hadim_cli.session import Session
-from store import SCHEMA_VERSION, Store
+from hadim_store import SCHEMA_VERSION, Store
 
 SEED = 5
 N = 300
@@ -99,7 +99,7 @@ def test_a_full_p_a_replay_is_written_as_its_new_rows_and_resumes_exactly(runner
     then writes the examples added since its base (a window of the base's value, then them;
     whole only when all of it is new), and a resume or fork across such deltas is exact."""
     from hadim_cli.learner.classifier import VisualClassifier
-    from store import codecs
+    from hadim_store import codecs
 
     monkeypatch.setitem(VisualClassifier.__init__.__kwdefaults__, "replay_size", 2)
     monkeypatch.setenv(runs.SNAPSHOT_ENV, "4")

@@ -16,7 +16,7 @@ import pytest
 from hadim_cli.app import app
 from hadim_cli.errors import HadimError
 from hadim_cli.sweep.plan import RunKind, build_plan, parse_grid, parse_seeds
-from store.api import Store
+from hadim_store.api import Store
 
 SMALL = ["--set", "world.episode_length=50", "-n", "100", "--eval-every", "0"]
 ROOT = Path(__file__).resolve().parents[1]
@@ -104,7 +104,8 @@ def test_unreachable_servers_are_one_line_and_create_nothing(runner, tmp_path):
     assert _refused(runner, "report", "x", "--out", out, "--store", "mongodb://h/db"
                     ).startswith("error: cannot use store URL mongodb://h/db")
     assert _refused(runner, "report", "x", "--out", out, "--store", store
-                    ) == f"error: no store at {store} (train a run first, or pass --store)"
+                    ) == f"error: no store at {store}: start a run with `hadim train`, or pass " \
+                         "--store"
     assert not store.exists() and not out.exists()
 
 

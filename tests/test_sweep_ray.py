@@ -23,8 +23,8 @@ import pytest
 from typer.testing import CliRunner
 
 from hadim_cli.app import app
-from store.api import Store
-from store.errors import StoreError
+from hadim_store.api import Store
+from hadim_store.errors import StoreError
 
 pytest.importorskip("ray")
 

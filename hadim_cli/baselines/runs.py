@@ -11,6 +11,7 @@ latest checkpoint, replaying the replay-buffer rows of every checkpoint up to it
 
 from __future__ import annotations
 
+import dataclasses
 from collections.abc import Callable
 from importlib import metadata
 from typing import Any
@@ -27,9 +28,9 @@ from hadim_cli.baselines.evaluate import evaluate_policy
 from hadim_cli.errors import HadimError
 from hadim_cli.evaluation.runner import TaskResult
 from hadim_cli.evaluation.tasks import Task, load_task
-from hadim_cli.runs import Progress, package_versions
-from store.api import Store
-from store.records import EpisodeWrite, RunRecord
+from hadim_cli.runs import TARGET_KEY, Progress, package_versions
+from hadim_store.api import Store
+from hadim_store.records import EpisodeWrite, RunRecord
 
 STATE_FORMAT = 1
 
@@ -148,6 +149,7 @@ def train(store: Store | None, run: str | None, session: BaselineSession, total:
             n = min(n, eval_every - it % eval_every)
         write = session.run_chunk(n)
         if store is not None and run is not None:
+            write = dataclasses.replace(write, extra={**write.extra, TARGET_KEY: total})
             store.write_episode(run, write, owner=owner)
         it = session.iteration
         if eval_every and it % eval_every == 0:

@@ -6,6 +6,7 @@ from typing import Annotated
 
 import typer
 
+from hadim_cli.commands import driver
 from hadim_cli.commands.common import StoreOption
 from hadim_cli.errors import HadimError
 
@@ -51,7 +52,6 @@ def train(
     from hadim_cli import runs
     from hadim_cli.baselines import runs as baseline_runs
     from hadim_cli.baselines.agents import make_config
-    from hadim_cli.commands.training import _drive
     from hadim_cli.config import WorldConfig
 
     cfg = make_config(algo, task, reward, actions, horizon or iterations, eval_every,
@@ -62,26 +62,31 @@ def train(
         record = baseline_runs.new_run(st, cfg, seed, name)
         typer.echo(record.name)
         session = baseline_runs.BaselineSession(cfg, seed)
-        _drive(st, record.name, session, iterations, eval_every, store,
-               train=baseline_runs.train, tasks=(cfg.task,))
+        driver.drive(st, record.name, session, iterations, eval_every, store,
+                     baseline_runs.train, (cfg.task,))
 
 
 def resume_baseline(st, record, iterations: int | None, eval_every: int | None,
                     store_option: str | None) -> None:
-    """`hadim resume` on a baseline run."""
+    """`hadim resume` on a baseline run: every refusal before the agent is restored."""
+    from hadim_cli import runs
     from hadim_cli.baselines import runs as baseline_runs
-    from hadim_cli.commands.training import _drive
+    from hadim_cli.baselines.agents import read_config
+    from hadim_store.records import RunStatus
 
-    session = baseline_runs.restore(st, record)
-    total = iterations or max(session.cfg.horizon, record.iterations)
-    multiple = session.cfg.multiple
+    cfg = read_config(record.config)
+    finished = record.status is RunStatus.FINISHED
+    default = record.iterations if finished else max(cfg.horizon, record.iterations)
+    total = iterations or runs.target_iterations(st, record, default)
+    multiple = cfg.multiple
     baseline_runs.check_total(total, multiple)
-    every = session.cfg.eval_every if eval_every is None else eval_every
+    every = cfg.eval_every if eval_every is None else eval_every
     if every % multiple:
         raise HadimError(f"--eval-every must be a multiple of {multiple}, got {every}")
-    if session.iteration >= total:
-        raise HadimError(f"run {record.name} already has {session.iteration} iterations "
-                         f"(asked for {total}); pass a larger --iterations")
+    driver.refuse_reached(record.name, record.iterations, total, iterations is not None,
+                          store_option)
+    driver.refuse_if_locked(st, record.name)
     _threads()
-    _drive(st, record.name, session, total, every, store_option,
-           train=baseline_runs.train, tasks=(session.cfg.task,))
+    session = baseline_runs.restore(st, record)
+    driver.drive(st, record.name, session, total, every, store_option,
+                 baseline_runs.train, (cfg.task,))

@@ -14,7 +14,8 @@ from hadim_cli.errors import HadimError
 runs_app = typer.Typer(help="List and show stored runs.", no_args_is_help=True)
 app = typer.Typer()
 
-RunArg = Annotated[str, typer.Argument(help="Run name, e.g. run-7.")]
+RunArg = Annotated[str | None, typer.Argument(
+    help="Run name, e.g. run-7 (default: the store's most recently updated run).")]
 AtOption = Annotated[int | None, typer.Option("--at", min=0, help="Use the checkpoint at or "
                                               "before this iteration (default: latest).")]
 
@@ -26,30 +27,52 @@ def _console():
 
 
 @runs_app.command("list")
-def runs_list(store: StoreOption = None, as_json: JsonOption = False) -> None:
-    """Every run of the store."""
+def runs_list(
+    store: StoreOption = None,
+    as_json: JsonOption = False,
+    wide: Annotated[bool, typer.Option("--wide", help="Every column (seed, parent, the "
+                                       "time to the second): wider than 80 columns.")] = False,
+) -> None:
+    """Every run of the store: name, what it runs, status, iterations, last update."""
     from rich.table import Table
 
     from hadim_cli import runs
 
     with runs.open_store(store, create=False, writes=False) as st:
         records = st.list_runs()
+        damaged = runs.damaged_runs(st, records)
     if as_json:
         typer.echo(json.dumps([{"name": r.name, "status": r.status.value, "seed": r.seed,
                                 "iterations": r.iterations, "parent": r.parent,
-                                **_kind(r.config)} for r in records], indent=2))
-        return
-    table = Table(title=f"runs in {runs.store_location(store)}")
-    for col in ("name", "kind", "algorithm", "status", "iterations", "seed", "parent",
-                "updated"):
-        table.add_column(col)
-    for r in records:
-        parent = f"{r.parent}@{r.fork_iteration}" if r.parent else ""
-        kind = _kind(r.config)
-        table.add_row(r.name, kind["kind"], kind["algorithm"], r.status.value,
-                      str(r.iterations), str(r.seed), parent,
-                      r.updated_at.strftime("%Y-%m-%d %H:%M:%S"))
-    _console().print(table)
+                                "damaged": r.name in damaged, **_kind(r.config)}
+                               for r in records], indent=2))
+    else:
+        table = Table(title=f"runs in {runs.store_location(store)}", title_justify="left")
+        table.add_column("name", no_wrap=True)
+        if wide:
+            table.add_column("kind", no_wrap=True)
+        table.add_column("algorithm" if wide else "runs", overflow="fold")
+        for col in ("status", "iterations", *(("seed", "parent") if wide else ()), "updated"):
+            table.add_column(col, no_wrap=True, justify="right" if col == "iterations" else
+                             "left")
+        for r in records:
+            kind = _kind(r.config)
+            what = kind["algorithm"] if kind["kind"] == "baseline" or wide else kind["kind"]
+            status = "DAMAGED" if r.name in damaged else r.status.value
+            parent = f"{r.parent}@{r.fork_iteration}" if r.parent else ""
+            table.add_row(r.name, *((kind["kind"],) if wide else ()), what, status,
+                          str(r.iterations), *((str(r.seed), parent) if wide else ()),
+                          r.updated_at.strftime("%Y-%m-%d %H:%M" + (":%S" if wide else "")))
+        console = _console()
+        if wide:  # every column whole, however wide: the user asked for it
+            from rich.console import Console
+
+            from hadim_cli.reports import least_width
+
+            console = Console(width=max(console.width, least_width(table)))
+        console.print(table)
+    if damaged:
+        raise HadimError(runs.damage_line(None, f"{', '.join(damaged)} cannot be read"))
 
 
 def _kind(config: dict) -> dict[str, str]:
@@ -61,21 +84,24 @@ def _kind(config: dict) -> dict[str, str]:
 
 
 def _refuse_baseline(record, what: str) -> None:
-    if record.config.get("kind") == "baseline":
+    from hadim_cli import runs
+
+    if runs.run_kind(record) is runs.RunKind.BASELINE:
         algorithm = _kind(record.config)["algorithm"]
         raise HadimError(f"run {record.name} is a baseline run ({algorithm}): {what} is for "
                          "the learner's runs")
 
 
 @runs_app.command("show")
-def runs_show(run: RunArg, store: StoreOption = None, as_json: JsonOption = False) -> None:
+def runs_show(run: RunArg = None, store: StoreOption = None, as_json: JsonOption = False) -> None:
     """Status, iterations, parent, config, affordances, latest scores and D's digest."""
     from rich.table import Table
 
     from hadim_cli import runs
 
     with runs.open_store(store, create=False, writes=False) as st:
-        r = st.get_run(run)
+        r = runs.chosen_run(st, run)
+        run = r.name
         # |H| from the last episode's per-affordance stats: decoding the checkpoint's arrays
         # would be slow on a long run and fail on a damaged one that `show` should still show.
         n_aff = sum(1 for s in st.stats(run, upto_iteration=r.iterations)
@@ -87,7 +113,7 @@ def runs_show(run: RunArg, store: StoreOption = None, as_json: JsonOption = Fals
             latest[e.task] = {"score": e.score, "iteration": e.iteration}
         kind = _kind(r.config)
         babbling = None
-        if r.config.get("kind") != "baseline":
+        if runs.run_kind(r) is runs.RunKind.LEARNER:
             sigma = r.config.get("learner", {}).get("sigma")
             babbling = runs.goal_babbling_share([e.extra for e in st.episodes(run)], sigma)
         info = {
@@ -139,7 +165,7 @@ def _show_value(key: str, value, iterations: int) -> str:
 
 @app.command()
 def affordances(
-    run: RunArg,
+    run: RunArg = None,
     timeline: Annotated[bool, typer.Option("--timeline", help="Show every change of H.")] = False,
     at: AtOption = None,
     out: Annotated[Path | None, typer.Option(
@@ -155,7 +181,6 @@ def affordances(
 ) -> None:
     """The affordance hierarchy H of a run (as it stood at --at), its timeline, or its p_A."""
     from hadim_cli import runs
-    from hadim_cli.reports import affordance_rows, render_h_table, render_p_a, render_timeline
 
     if pa and (timeline or out is not None):
         raise HadimError("--pa shows p_A of H at one iteration: not with --timeline or --out")
@@ -163,26 +188,55 @@ def affordances(
         raise HadimError("--errors shows the models of H at one iteration: not with --pa, "
                          "--timeline or --out")
     with runs.open_store(store, create=False, writes=False) as st:
-        record = st.get_run(run)
+        record = runs.chosen_run(st, run)
         _refuse_baseline(record, "affordances")
         if at is not None and at > record.iterations:
-            raise HadimError(f"--at {at} is beyond run {run}'s {record.iterations} iterations")
-        events = st.events(run, upto_iteration=at)
+            raise HadimError(f"--at {at} is beyond run {record.name}'s {record.iterations} "
+                             "iterations")
         if timeline or out is not None:
-            if out is not None:
-                from hadim_cli.plots import timeline_figure
-
-                timeline_figure(events, record.iterations if at is None else at, out,
-                                title=f"run {run}: affordance timeline")
-                typer.echo(f"wrote {out}", err=as_json)  # stdout stays pure JSON with --json
-            if as_json:
-                typer.echo(json.dumps([_event_json(e) for e in events], indent=2))
-            else:
-                render_timeline(_console(), events)
+            _show_timeline(st.events(record.name, upto_iteration=at), record, at, out, as_json)
             return
-        session = runs.restore_session(st, record, at)
+        # H's table is stored with every episode; p_A and the models' errors (and H of a run
+        # stored by an older hadim) need the session restored.
+        stored = None if pa or errors else runs.stored_hierarchy(st, record, at)
+        session = runs.restore_session(st, record, at) if stored is None else None
+    if session is None:
+        rows, iteration = stored
+    elif pa or errors:
+        _show_models(session, pa, as_json)
+        return
+    else:
+        from hadim_cli.reports import affordance_rows
+
+        rows, iteration = affordance_rows(session), session.iteration
+    if as_json:
+        typer.echo(json.dumps(rows, indent=2))
+    else:
+        from hadim_cli.reports import render_h_table
+
+        render_h_table(_console(), rows, iteration)
+
+
+def _show_timeline(events, record, at: int | None, out: Path | None, as_json: bool) -> None:
+    from hadim_cli.reports import render_timeline
+
+    if out is not None:
+        from hadim_cli.plots import timeline_figure
+
+        timeline_figure(events, record.iterations if at is None else at, out,
+                        title=f"run {record.name}: affordance timeline")
+        typer.echo(f"wrote {out}", err=as_json)  # stdout stays pure JSON with --json
+    if as_json:
+        typer.echo(json.dumps([_event_json(e) for e in events], indent=2))
+    else:
+        render_timeline(_console(), events)
+
+
+def _show_models(session, pa: bool, as_json: bool) -> None:
+    """`--pa` (p_A on probe objects) or `--errors` (each forward model's held-out errors)."""
     if pa:
         from hadim_cli.pa_probes import verdicts
+        from hadim_cli.reports import render_p_a
 
         found = verdicts(session)
         if as_json:
@@ -190,20 +244,13 @@ def affordances(
         else:
             render_p_a(_console(), found, session.iteration)
         return
-    if errors:
-        from hadim_cli.reports import error_rows, render_errors
+    from hadim_cli.reports import error_rows, render_errors
 
-        found = error_rows(session)
-        if as_json:
-            typer.echo(json.dumps(found, indent=2))
-        else:
-            render_errors(_console(), found, session.iteration)
-        return
-    rows = affordance_rows(session)
+    rows = error_rows(session)
     if as_json:
         typer.echo(json.dumps(rows, indent=2))
     else:
-        render_h_table(_console(), rows, session.iteration)
+        render_errors(_console(), rows, session.iteration)
 
 
 def _event_json(e) -> dict:
@@ -214,7 +261,7 @@ def _event_json(e) -> dict:
 
 @app.command("eval")
 def eval_cmd(
-    run: RunArg,
+    run: RunArg = None,
     task: Annotated[str | None, typer.Option("--task", help="A task of configs/tasks/.")] = None,
     points: Annotated[Path | None, typer.Option("--points", help="Your own task file.")] = None,
     at: AtOption = None,
@@ -222,46 +269,39 @@ def eval_cmd(
         "--animate", help="Also draw every point's attempt, action by action, to this GIF.")
     ] = None,
     exact: Annotated[list[str] | None, typer.Option(
-        "--exact", help="Replace a level of the chain by an exact one (diagnostic, not "
-        "stored): navigation.")] = None,
+        "--exact", help="Replace a level of the chain by the scripted controller's exact one "
+        "(a diagnostic, not stored): navigation (the robot's motion), push (an object "
+        "pushed to a point) or tool (where the tool goes next); repeat to combine.")] = None,
+    controller: Annotated[str | None, typer.Option(
+        "--controller", help="Evaluate with this controller instead of the run's: rules or "
+        "search (a diagnostic, not stored).")] = None,
     store: StoreOption = None,
     as_json: JsonOption = False,
 ) -> None:
     """Evaluate a run's H on a task's target points and store the score."""
     from hadim_cli import runs
-    from hadim_cli.evaluation.exact import exact_levels
-    from hadim_cli.evaluation.runner import evaluate
+    from hadim_cli.config import CONTROLLERS
     from hadim_cli.evaluation.tasks import load_task, load_task_file
     from hadim_cli.reports import render_eval
 
     if (task is None) == (points is None):
         raise HadimError("give exactly one of --task NAME or --points FILE")
+    if controller is not None and controller not in CONTROLLERS:
+        raise HadimError(f"--controller {controller}: unknown (known: {', '.join(CONTROLLERS)})")
     chosen = load_task(task) if task is not None else load_task_file(points)
-    with runs.open_store(store, create=False) as st:
-        record = st.get_run(run)
+    with runs.open_store(store, create=False, run=run) as st:
+        record = runs.chosen_run(st, run)
+        run = record.name
         if at is not None and at > record.iterations:
             raise HadimError(f"--at {at} is beyond run {run}'s {record.iterations} iterations")
-        if record.config.get("kind") == "baseline":
-            from hadim_cli.baselines import runs as baseline_runs
-            from hadim_cli.baselines.evaluate import check_fits
-
-            if animate is not None or exact:
-                raise HadimError("--animate and --exact are diagnostics of the learner's "
-                                 f"planner; run {run} is a baseline run")
-            check_fits(baseline_runs.read_config(record.config), chosen)
-            session = baseline_runs.restore(st, record, at)
-            result = session.evaluate(chosen)
-            st.add_evaluation(run, session.iteration, chosen.name, result.score,
-                              result.to_dict()["points"])
+        if runs.run_kind(record) is runs.RunKind.BASELINE:
+            if animate is not None or exact or controller:
+                raise HadimError("--animate, --exact and --controller are diagnostics of the "
+                                 f"learner's controller; run {run} is a baseline run")
+            result, session = _eval_baseline(st, record, chosen, at)
         else:
-            session = runs.restore_session(st, record, at)
-            with exact_levels(session.learner, session.config.world, tuple(exact or ())):
-                result = evaluate(session.learner, session.config.world, chosen,
-                                  record=animate is not None)
-            if not exact:
-                # A score with an exact level is a diagnostic, not the learner's.
-                st.add_evaluation(run, session.iteration, chosen.name, result.score,
-                                  result.to_dict()["points"])
+            result, session = _eval_learner(st, record, chosen, at, tuple(exact or ()),
+                                            animate is not None, controller)
     if animate is not None:
         from hadim_cli.evaluation.animate import animate as draw
 
@@ -278,10 +318,51 @@ def eval_cmd(
             typer.echo(f"wrote {animate}")
 
 
+def _eval_baseline(st, record, chosen, at: int | None):
+    from hadim_cli.baselines import runs as baseline_runs
+    from hadim_cli.baselines.evaluate import check_fits
+
+    check_fits(baseline_runs.read_config(record.config), chosen)
+    session = baseline_runs.restore(st, record, at)
+    result = session.evaluate(chosen)
+    st.add_evaluation(record.name, session.iteration, chosen.name, result.score,
+                      result.to_dict()["points"])
+    return result, session
+
+
+def _eval_learner(st, record, chosen, at: int | None, exact: tuple[str, ...], animate: bool,
+                  controller: str | None):
+    """The learner's H on `chosen`; the task is checked against the run's world first, so a
+    target it cannot reach is refused before the session is restored. With `exact` levels or
+    another `controller` the score is a diagnostic, not stored."""
+    import dataclasses
+
+    from hadim_cli import runs
+    from hadim_cli.config import stored_config
+    from hadim_cli.evaluation.tasks import check_task
+
+    check_task(chosen, stored_config(record.config).world)
+    from hadim_cli.evaluation.exact import exact_levels
+    from hadim_cli.evaluation.runner import evaluate
+
+    session = runs.restore_session(st, record, at)
+    other = controller not in (None, session.config.controller.kind)
+    if other:
+        session.learner.use_controller(dataclasses.replace(session.config.controller,
+                                                           kind=controller))
+    with exact_levels(session.learner, session.config.world, exact):
+        result = evaluate(session.learner, session.config.world, chosen, record=animate)
+    if not exact and not other:  # an exact level or another controller: a diagnostic
+        st.add_evaluation(record.name, session.iteration, chosen.name, result.score,
+                          result.to_dict()["points"])
+    return result, session
+
+
 @app.command()
 def plot(
-    run: Annotated[list[str], typer.Argument(help="Run name(s); several runs are drawn "
-                                             "together, grouped by algorithm (paper Fig. 5).")],
+    run: Annotated[list[str] | None, typer.Argument(
+        help="Run name(s); several runs are drawn together, grouped by algorithm (paper "
+        "Fig. 5). Default: the store's most recently updated run.")] = None,
     out: Annotated[Path, typer.Option("--out", help="PNG to write.")] = Path("curves.png"),
     log_x: Annotated[bool, typer.Option("--log-x", help="Iterations on a log axis.")] = False,
     store: StoreOption = None,
@@ -294,8 +375,9 @@ def plot(
 
     groups: dict[str, list] = {}
     with runs.open_store(store, create=False, writes=False) as st:
+        run = run or [runs.chosen_run(st, None).name]
         for name in dict.fromkeys(run):
-            record = st.get_run(name)
+            record = runs.chosen_run(st, name)
             evaluations = st.evaluations(name)
             if not evaluations:
                 raise HadimError(f"run {name} has no evaluations yet (train with --eval-every, "

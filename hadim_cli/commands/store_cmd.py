@@ -10,7 +10,7 @@ import typer
 
 from hadim_cli.commands.common import StoreOption
 from hadim_cli.errors import HadimError
-from store.errors import DamagedStore
+from hadim_store.errors import DamagedStore
 
 app = typer.Typer(help="Check a store file; upgrade a store's schema.", no_args_is_help=True)
 
@@ -20,13 +20,15 @@ def check(store: StoreOption = None) -> None:
     """SQLite's integrity check of the store file, then every run read back (D, timeline,
     latest checkpoint). Exit 0 if all is sound, 1 if anything is damaged; writes nothing."""
     from hadim_cli import runs
-    from store import engine
+    from hadim_store import engine
 
     where = runs.store_location(store)
     if "://" in where:
         raise HadimError("hadim store check reads SQLite files only; check a database server "
                          "with its own tools")
     path = Path(where)
+    if path.is_dir():
+        raise HadimError(f"{where} is a directory, not a store file")
     if not path.is_file():
         raise HadimError(f"no store at {where}")
     try:
@@ -60,7 +62,7 @@ def upgrade(
     opening a store does not apply (docs/store.md), in one transaction: a failure leaves the
     store as it was. A store newer than this hadim is refused, unchanged."""
     from hadim_cli import runs
-    from store.api import upgrade_store
+    from hadim_store.api import upgrade_store
 
     where = runs.store_location(store)
     if "://" not in where and not Path(where).is_file():
@@ -83,8 +85,8 @@ def upgrade(
 
 def _check_runs(where: str) -> int:
     """Read every run back; print one line per run; the number that fail."""
-    from store.api import Store
-    from store.errors import SchemaError
+    from hadim_store.api import Store
+    from hadim_store.errors import SchemaError
 
     failed = 0
     try:
@@ -106,6 +108,7 @@ def _check_runs(where: str) -> int:
                 record = st.get_run(name)
                 st.dataset_sha256(name)
                 st.events(name)
+                st.stats(name)
                 st.evaluations(name)
                 iterations = st.checkpoint_iterations(name)
             except Exception as exc:  # noqa: BLE001
@@ -131,4 +134,6 @@ def _damaged_checkpoints(st, name: str, iterations: list[int]) -> list[int]:
 
 
 def _reason(exc: BaseException) -> str:
-    return str(getattr(exc, "orig", None) or exc).splitlines()[0]
+    from hadim_cli.runs import short_reason
+
+    return short_reason(exc, limit=120)

@@ -17,7 +17,7 @@ ALL_TASKS = "move-robot,push-object,push-with-tool"
 def _shared_store(option: str | None) -> str:
     """The store as every worker must reach it: an absolute file path, or a server URL."""
     from hadim_cli import runs
-    from store.engine import resolve_url, sqlite_file
+    from hadim_store.engine import resolve_url, sqlite_file
 
     where = runs.store_location(option)
     url = resolve_url(where)
@@ -93,7 +93,7 @@ def sweep(
         raise HadimError("hadim sweep needs Ray: pip install 'hadim[sweep]'") from None
     if address:
         driver.check_address(address)  # before the store: a refused sweep creates nothing
-    from store.api import Store
+    from hadim_store.api import Store
 
     with Store.open(url) as st:
         st.claim_sweep(name, built.settings())

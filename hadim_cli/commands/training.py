@@ -1,17 +1,18 @@
-"""`hadim train`, `hadim resume`, `hadim fork`: drive learning sessions stored as runs."""
+"""`hadim train`, `hadim resume`, `hadim fork`: drive learning sessions stored as runs.
+
+Exit status: 0 when the run reaches its iterations, `driver.PAUSED_EXIT` (130) when Ctrl-C
+paused it, 2 for a refusal (one `error:` line)."""
 
 from __future__ import annotations
 
-import shlex
-import signal
-from contextlib import contextmanager
 from typing import Annotated
 
 import typer
 
+from hadim_cli.commands import driver
+from hadim_cli.commands.baseline import resume_baseline
 from hadim_cli.commands.common import ConfigOption, SetOption, StoreOption
 from hadim_cli.errors import HadimError
-from hadim_cli.heartbeat import keep_alive as _heartbeat
 
 app = typer.Typer()
 
@@ -19,88 +20,6 @@ IterationsOption = Annotated[int, typer.Option("--iterations", "-n", min=1,
                                                help="Total iterations (primitive actions).")]
 EvalEveryOption = Annotated[int | None, typer.Option(
     "--eval-every", min=0, help="Evaluate every N iterations (default: evaluation.every; 0 off).")]
-
-
-@contextmanager
-def _interruptible():
-    """Ctrl-C asks the loop to stop after the current episode; a second one, while an episode
-    is still running, aborts it (its iterations are not stored). The handler stays installed
-    until the run's status is written, so a late Ctrl-C cannot leave it half-recorded."""
-    flag = {"stop": False, "armed": True}
-
-    def handler(signum, frame):  # noqa: ARG001
-        if flag["stop"] and flag["armed"]:
-            raise KeyboardInterrupt
-        flag["stop"] = True
-
-    def disarm() -> None:
-        flag["armed"] = False
-
-    previous = signal.signal(signal.SIGINT, handler)
-    try:
-        yield (lambda: flag["stop"]), disarm
-    finally:
-        signal.signal(signal.SIGINT, previous)
-
-
-def _resume_hint(run_name: str, total: int, store_option: str | None) -> str:
-    where = f" --store {shlex.quote(store_option)}" if store_option else ""
-    return f"hadim resume {run_name} --iterations {total}{where}"
-
-
-def _drive(store, run_name: str, session, total: int, eval_every: int,
-           store_option: str | None = None, train=None, tasks: tuple[str, ...] | None = None,
-           ) -> None:
-    """Train `session` to `total` under the run's lock, with progress and Ctrl-C pause;
-    `train` and `tasks` default to the learner's (a baseline run passes its own)."""
-    import time
-
-    from hadim_cli import runs
-    from hadim_cli.progress import Reporter, say, summary
-    from store.records import RunStatus
-
-    owner = runs.owner_id()
-    began, start = time.monotonic(), session.iteration
-    with _interruptible() as (should_stop, disarm):
-        store.acquire_lock(run_name, owner)
-        stored = store.get_run(run_name).iterations
-        if stored != session.iteration:  # another process wrote to it while we loaded it
-            store.release_lock(run_name, owner)
-            raise HadimError(f"run {run_name} moved from iteration {session.iteration} to "
-                             f"{stored} while loading; run the command again")
-        store.set_status(run_name, RunStatus.RUNNING)
-        status, aborted = RunStatus.FAILED, False
-        try:
-            with _heartbeat(store, run_name, owner), \
-                    Reporter(run_name, session.iteration, total) as reporter:
-                (train or runs.train)(
-                    store, run_name, session, total, eval_every=eval_every,
-                    tasks=session.config.evaluation.tasks if tasks is None else tasks,
-                    on_progress=reporter.update, should_stop=should_stop, owner=owner)
-            status = runs.finish_status(session, total)
-        except KeyboardInterrupt:
-            # The episode in progress is lost; every stored one is intact and resumable.
-            status, aborted = RunStatus.PAUSED, True
-        finally:
-            disarm()
-            if _holds_lock(store, run_name, owner):  # never overwrite a new holder's status
-                store.set_status(run_name, status)
-                store.release_lock(run_name, owner)
-    if status is RunStatus.PAUSED:
-        done = store.get_run(run_name).iterations
-        # Through `say`: with `2>&1 | tee log`, Ctrl-C has killed tee; the terminal still
-        # gets the command, and the exit status stays the documented one.
-        say(f"{'aborted' if aborted else 'paused'} at iteration {done}; continue with: "
-            f"{_resume_hint(run_name, total, store_option)}")
-    if not aborted:
-        say(summary(store, run_name, start, time.monotonic() - began, store_option))
-    if aborted:
-        raise typer.Exit(130)
-
-
-def _holds_lock(store, run_name: str, owner: str) -> bool:
-    lock = store.get_run(run_name).lock
-    return lock is not None and lock.owner == owner
 
 
 def _eval_every(option: int | None, config) -> int:
@@ -121,7 +40,8 @@ def train(
     eval_every: EvalEveryOption = None,
     store: StoreOption = None,
 ) -> None:
-    """Start a new learning session and store it as a run; prints the run's name."""
+    """Start a new learning session and store it as a run; prints the run's name.
+    Ctrl-C pauses it (exit status 130) and prints the command that continues it."""
     from hadim_cli import runs
     from hadim_cli.config import load_config
     from hadim_cli.session import Session
@@ -131,33 +51,47 @@ def train(
     with runs.open_store(store) as st:
         record = runs.new_run(st, resolved, seed, name)
         typer.echo(record.name)
-        _drive(st, record.name, Session(resolved, seed), iterations, every, store)
+        driver.drive(st, record.name, Session(resolved, seed), iterations, every, store,
+                     runs.train, resolved.evaluation.tasks)
 
 
 @app.command()
 def resume(
     run: Annotated[str, typer.Argument(help="Run to continue.")],
-    iterations: Annotated[int | None, typer.Option("--iterations", "-n", min=1,
-                                                   help="New total (default: 4000).")] = None,
+    iterations: Annotated[int | None, typer.Option(
+        "--iterations", "-n", min=1, help="New total (default: the iterations the run was "
+        "started for; a finished run needs a larger one).")] = None,
     eval_every: EvalEveryOption = None,
     store: StoreOption = None,
 ) -> None:
-    """Continue a run from its last checkpoint up to --iterations in total."""
+    """Continue a paused or interrupted run from its last checkpoint, to the iterations it
+    was started for (or --iterations in total)."""
     from hadim_cli import runs
 
-    with runs.open_store(store, create=False) as st:
+    resumers = {runs.RunKind.LEARNER: _resume_learner, runs.RunKind.BASELINE: resume_baseline}
+    with runs.open_store(store, create=False, run=run) as st:
         record = st.get_run(run)
-        if record.config.get("kind") == "baseline":
-            from hadim_cli.commands.baseline import resume_baseline
+        resumers[runs.run_kind(record)](st, record, iterations, eval_every, store)
 
-            resume_baseline(st, record, iterations, eval_every, store)
-            return
-        session = runs.restore_session(st, record)
-        total = iterations or max(4000, record.iterations)
-        if session.iteration >= total:
-            raise HadimError(f"run {run} already has {session.iteration} iterations "
-                             f"(asked for {total}); pass a larger --iterations")
-        _drive(st, run, session, total, _eval_every(eval_every, session.config), store)
+
+def _resume_learner(st, record, iterations: int | None, eval_every: int | None,
+                    store_option: str | None) -> None:
+    """`hadim resume` on a learner's run: every refusal before the session is restored."""
+    from hadim_cli import runs
+    from hadim_cli.config import stored_config
+    from hadim_store.records import RunStatus
+
+    finished = record.status is RunStatus.FINISHED
+    default = record.iterations if finished else max(runs.DEFAULT_ITERATIONS, record.iterations)
+    total = iterations or runs.target_iterations(st, record, default)
+    driver.refuse_reached(record.name, record.iterations, total, iterations is not None,
+                          store_option)
+    config = stored_config(record.config)
+    every = _eval_every(eval_every, config)
+    driver.refuse_if_locked(st, record.name)
+    session = runs.restore_session(st, record)
+    driver.drive(st, record.name, session, total, every, store_option, runs.train,
+                 config.evaluation.tasks)
 
 
 @app.command()
@@ -174,9 +108,9 @@ def fork(
     from hadim_cli import runs
     from hadim_cli.config import stored_config, with_overrides
 
-    with runs.open_store(store, create=False) as st:
+    with runs.open_store(store, create=False, run=run) as st:
         parent = st.get_run(run)
-        if parent.config.get("kind") == "baseline":
+        if runs.run_kind(parent) is runs.RunKind.BASELINE:
             raise HadimError(f"run {run} is a baseline run: fork is for the learner's runs")
         config = with_overrides(stored_config(parent.config), set_ or [])
         if set_:  # refuse, before writing anything, a config that cannot continue this history

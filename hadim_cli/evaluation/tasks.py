@@ -56,14 +56,14 @@ def load_task(name: str) -> Task:
     path = configs_dir() / "tasks" / f"{name}.toml"
     if not path.is_file():
         raise HadimError(f"unknown task '{name}' (known: {', '.join(task_names())})")
-    return parse_task(read_toml(path), str(path))
+    return parse_task(read_toml(path, "task file"), str(path))
 
 
 def load_task_file(path: Path) -> Task:
     """A user's own task, named `user:NAME` (its `name`, else the file's stem)."""
     if not Path(path).is_file():
         raise HadimError(f"task file not found: {path}")
-    task = parse_task(read_toml(Path(path)), str(path))
+    task = parse_task(read_toml(Path(path), "task file"), str(path))
     return dataclasses.replace(task, name=USER_PREFIX + task.name)
 
 

@@ -19,12 +19,12 @@ the inverse model says its affordance needs. Going round the tool, re-placing it
 on along a line all come out of this one search: nothing in it names a robot, a tool or a
 trip.
 
-Hard constraints prune imagined actions: no two bodies closer than touching (bodies a level
-pushes may touch, never overlap), none entering the clearance of a body no level pushes
-(moving away is always allowed: how a robot wedged beside an object gets out; the entity a
-binding forbids, e.g. the target while a tool moves it, is such a body), every body inside
-the world's bounds. A pursuit whose cost has not reached a new low for `stall` actions is
-given up. The controller draws no random numbers and changes nothing in the learner.
+Hard constraints prune imagined actions: bodies may touch, never overlap (by more than
+`clearance`, for the models' error); the entity a binding forbids (the target, while a tool
+moves it) is kept `clearance` clear of; moving apart is always allowed (how a robot wedged
+beside an object gets out); every body stays inside the world's bounds. A pursuit whose
+estimate has not reached a new low for `stall` actions is given up. The controller draws
+no random numbers and changes nothing in the learner.
 """
 
 from __future__ import annotations
@@ -354,15 +354,16 @@ class Controller:
         return after, self._allowed(before, after, plan.levels)
 
     def _reaches(self, arr: np.ndarray, lv: Level, x: np.ndarray) -> np.ndarray:
-        """Whether the mover of `lv`, moved by `x` from where it is in `arr`, comes into
-        contact with the body it moves on the way: only then can it move it (the support
-        gate: the model's rows from further are pushes through a third body)."""
+        """Whether the mover of `lv`, moved by `x` from where it is in `arr`, would overlap
+        the body it moves on the way (by more than `zero_eps`): only then does it push it (a
+        move along its rim slides by; the model's rows from further are pushes through a
+        third body)."""
         pos, radii = self._bodies(arr)
         start, centre = pos[:, lv.mover], pos[:, lv.moved]
         length2 = np.maximum(np.sum(x * x, 1), 1e-12)
         s = np.clip(np.sum((centre - start) * x, 1) / length2, 0.0, 1.0)
         nearest = np.linalg.norm(start + s[:, None] * x - centre, axis=1)
-        touch = radii[:, lv.mover] + radii[:, lv.moved] + self.config.zero_eps
+        touch = radii[:, lv.mover] + radii[:, lv.moved] - self.config.zero_eps
         return (nearest <= touch) & ~split_zero(x, self.config.zero_eps)
 
     def _write(self, arr: np.ndarray, entity: int, prop: Property, change: np.ndarray) -> None:
@@ -386,8 +387,8 @@ class Controller:
         p0, radii = self._bodies(before)
         p1, _ = self._bodies(after)
         clearance = self.pc.clearance
-        pushes = ({frozenset((lv.mover, lv.moved)) for lv in levels if lv.mover >= 0}
-                  - {frozenset((lv.mover, lv.binding.avoid)) for lv in levels})
+        forbidden = {frozenset((lv.mover if lv.mover >= 0 else lv.moved, lv.binding.avoid))
+                     for lv in levels if lv.binding.avoid >= 0}
         ok = np.ones(before.shape[0], dtype=bool)
         moved = np.flatnonzero(np.any(np.abs(p1 - p0) > 1e-9, axis=(0, 2)))
         for i in moved:
@@ -397,10 +398,10 @@ class Controller:
                 touch = radii[:, i] + radii[:, j]
                 d0 = np.linalg.norm(p0[:, i] - p0[:, j], axis=1)
                 d1 = np.linalg.norm(p1[:, i] - p1[:, j], axis=1)
-                if frozenset((i, j)) in pushes:
-                    ok &= d1 >= touch - clearance
-                else:
-                    ok &= (d1 >= touch + clearance) | (d1 >= d0 - 1e-6)
+                # Bodies may touch, never overlap; the entity a binding forbids its mover
+                # is kept clear of. Moving apart is always allowed.
+                least = touch + clearance if frozenset((i, j)) in forbidden else touch - clearance
+                ok &= (d1 >= least) | (d1 >= d0 - 1e-6)
             inside = ((p1[:, i] - radii[:, i, None] >= self._low)
                       & (p1[:, i] + radii[:, i, None] <= self._high)).all(1)
             ok &= inside | (np.abs(p1[:, i]).max(1) <= np.abs(p0[:, i]).max(1))

@@ -97,17 +97,23 @@ class Learner:
         self.hierarchy = Hierarchy()
         self.fitter = Fitter(self.dataset, self.reader, config)
         self.adaptation = Adaptation(self.hierarchy, self.fitter, config)
-        controller = ControllerConfig() if controller is None else controller
-        self.planner: Planner | Controller = (
-            Controller(self.hierarchy, self.reader, config, controller)
-            if controller.kind == "search"
-            else Planner(self.hierarchy, self.reader, config, planner))
+        self._planner_config = planner
+        self.planner: Planner | Controller
         """The controller that turns goals into primitive actions (`controller.kind`)."""
+        self.use_controller(ControllerConfig() if controller is None else controller)
         self.learning_episodes = 0
 
     @property
     def iteration(self) -> int:
         return len(self.dataset)
+
+    def use_controller(self, controller: ControllerConfig) -> None:
+        """Turn goals into actions with the controller `controller.kind` names from now on
+        (D and H are data; the controller is code)."""
+        self.planner = (Controller(self.hierarchy, self.reader, self.config, controller)
+                        if controller.kind == "search"
+                        else Planner(self.hierarchy, self.reader, self.config,
+                                     self._planner_config))
 
     # ------------------------------------------------------------------ object selection
     def accepted_objects(self, aff: Affordance, obs: np.ndarray) -> np.ndarray:

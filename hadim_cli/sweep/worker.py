@@ -52,7 +52,7 @@ def _train(store_url: str, entry: SweepEntry, should_stop: Callable[[], bool]) -
     from hadim_cli import runs
     from hadim_cli.config import config_from_dict
     from hadim_cli.heartbeat import keep_alive
-    from store.records import RunStatus
+    from hadim_store.records import RunStatus
 
     def create(store):
         return runs.new_run(store, config_from_dict(entry.config), entry.seed, entry.run)
@@ -76,7 +76,7 @@ def _baseline(store_url: str, entry: SweepEntry,
               should_stop: Callable[[], bool]) -> EntryResult:
     from hadim_cli.baselines import runs as baseline_runs
     from hadim_cli.heartbeat import keep_alive
-    from store.records import RunStatus
+    from hadim_store.records import RunStatus
 
     cfg = baseline_runs.read_config(entry.config)
     if cfg.algorithm != "q-learning":  # ours, numpy only: no torch to load
@@ -107,8 +107,8 @@ def _locked_run(store_url: str, entry: SweepEntry, create: Callable, work: Calla
     """`work(store, owner)` on the entry's run (created by `create(store)` if new) under its
     lock; the status it returns is written, `failed` if it raised."""
     from hadim_cli import runs
-    from store.api import Store
-    from store.records import RunStatus
+    from hadim_store.api import Store
+    from hadim_store.records import RunStatus
 
     with Store.open(store_url, create=False) as store:
         record = _existing_or_new(store, entry, create)
@@ -141,7 +141,7 @@ def _catch_up_evaluation(store, entry: SweepEntry, it: int, tasks: tuple[str, ..
 
 
 def _existing_or_new(store, entry: SweepEntry, create: Callable):
-    from store.errors import StoreError, UnknownRun
+    from hadim_store.errors import StoreError, UnknownRun
 
     try:
         record = store.get_run(entry.run)
@@ -158,7 +158,7 @@ def _existing_or_new(store, entry: SweepEntry, create: Callable):
 
 def _acquire(store, run: str, owner: str) -> None:
     """Take the run's lock, waiting for a holder on another host to go stale."""
-    from store.errors import RunLocked
+    from hadim_store.errors import RunLocked
 
     deadline = time.monotonic() + store.lock_timeout + LOCK_WAIT_MARGIN_S
     while True:

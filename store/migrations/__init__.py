@@ -4,12 +4,12 @@
 schema 1 (the tables of the first release), ``0002`` schema 2, and so on — the revision id is
 the version on four digits, and ``meta.schema_version`` follows the revision at every step
 (``env.py``), so a hadim from before alembic still reads the version it understands.
-``store.schema`` drives them: a new store is created from ``models.py`` and stamped with the
+``hadim_store.schema`` drives them: a new store is created from ``models.py`` and stamped with the
 head; an older one is upgraded in one transaction. This module imports nothing heavy: opening
 a store of the current schema never loads alembic.
 
 To change the schema: edit ``models.py``, bump ``SCHEMA_VERSION``, and add the revision
-(``python -m store.migrations revision "what changes"``; docs/store.md).
+(``python -m hadim_store.migrations revision "what changes"``; docs/store.md).
 """
 
 from __future__ import annotations

@@ -1,4 +1,4 @@
-"""``python -m store.migrations "what changes"``: a new revision file in ``versions/``, from
+"""``python -m hadim_store.migrations "what changes"``: a new revision file in ``versions/``, from
 ``script.py.mako``, numbered after the head (then bump ``SCHEMA_VERSION``; docs/store.md)."""
 
 from __future__ import annotations
@@ -11,7 +11,7 @@ def new_revision(message: str, folder: Path | None = None) -> Path:
     """Write the next revision's file (``000N_message.py``) and return its path."""
     from alembic import command
 
-    from store import migrations, schema
+    from hadim_store import migrations, schema
 
     script = command.revision(
         schema._config(None), message=message,
@@ -22,5 +22,5 @@ def new_revision(message: str, folder: Path | None = None) -> Path:
 
 if __name__ == "__main__":
     if len(sys.argv) != 2 or not sys.argv[1].strip():
-        sys.exit('usage: python -m store.migrations "what the revision changes"')
+        sys.exit('usage: python -m hadim_store.migrations "what the revision changes"')
     print(new_revision(sys.argv[1]))

@@ -1,6 +1,6 @@
 """alembic's environment for hadim stores.
 
-Run by ``store.schema`` on the connection it passes in ``config.attributes["connection"]``,
+Run by ``hadim_store.schema`` on the connection it passes in ``config.attributes["connection"]``,
 inside the transaction it has begun (and, on SQLite, with foreign keys off so that a table
 rebuild cascades nothing): alembic commits nothing itself, so the whole upgrade — every
 revision, alembic's version row and ``meta.schema_version`` — is one transaction.
@@ -11,8 +11,8 @@ from __future__ import annotations
 from alembic import context
 from sqlalchemy import update
 
-from store import migrations
-from store.models import Base, Meta
+from hadim_store import migrations
+from hadim_store.models import Base, Meta
 
 
 def _follow_revision(*, ctx, step, heads, run_args) -> None:  # noqa: ARG001 — alembic's signature

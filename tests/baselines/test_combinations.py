@@ -15,7 +15,7 @@ from hadim_cli.baselines.rewards import GOAL_REWARD, STEP_PENALTY, Reward
 from hadim_cli.baselines.tasks import TASKS
 from hadim_cli.config import WorldConfig
 from hadim_cli.evaluation.tasks import load_task
-from store.api import Store
+from hadim_store.api import Store
 
 
 @pytest.fixture(autouse=True)

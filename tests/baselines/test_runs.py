@@ -15,7 +15,7 @@ from hadim_cli.app import app
 from hadim_cli.baselines import runs as baseline_runs
 from hadim_cli.baselines.agents import make_config
 from hadim_cli.config import WorldConfig
-from store.api import Store
+from hadim_store.api import Store
 
 PNG = b"\x89PNG\r\n\x1a\n"
 SMALL = ("--episode-length", 30, "--eval-every", 60)

@@ -13,8 +13,8 @@ from hadim_cli.app import app
 from hadim_cli.errors import HadimError
 from hadim_cli.report.baselines import comparison_table, first_at, group_label, zone_share
 from hadim_cli.sweep.plan import BaselineGrid, RunKind, build_plan
-from store.api import Store
-from store.records import Evaluation
+from hadim_store.api import Store
+from hadim_store.records import Evaluation
 
 PNG = b"\x89PNG\r\n\x1a\n"
 

@@ -132,7 +132,7 @@ def test_the_options_reach_the_learner_from_the_command_line_and_are_stored(tmp_
     from hadim_cli.app import app
     from hadim_cli.config import stored_config
     from hadim_cli.runs import restore_session
-    from store.api import Store
+    from hadim_store.api import Store
 
     store = tmp_path / "s.sqlite"
     result = CliRunner().invoke(app, [
@@ -256,7 +256,7 @@ def test_the_paper_literal_config_turns_every_paper_switch_on_and_trains(tmp_pat
     from hadim_cli.app import app
     from hadim_cli.config import LearnerConfig, configs_dir, load_config
     from hadim_cli.runs import restore_session
-    from store.api import Store
+    from hadim_store.api import Store
 
     path = configs_dir() / "paper-literal.toml"
     learner = load_config(path).learner

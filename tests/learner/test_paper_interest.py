@@ -134,7 +134,7 @@ def test_the_option_reaches_the_learner_from_the_command_line_and_is_stored(tmp_
 
     from hadim_cli.app import app
     from hadim_cli.runs import restore_session
-    from store.api import Store
+    from hadim_store.api import Store
 
     store = tmp_path / "s.sqlite"
     for name, value in (("paper", "true"), ("half", "false")):

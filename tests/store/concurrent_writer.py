@@ -15,7 +15,7 @@ sys.path[:0] = [str(Path(__file__).resolve().parents[2]), str(Path(__file__).res
 
 from conftest import make_episode  # noqa: E402
 
-from store import RunLocked, Store  # noqa: E402
+from hadim_store import RunLocked, Store  # noqa: E402
 
 
 def main(url: str, workdir: str, index: int, episodes: int, writers: int) -> None:

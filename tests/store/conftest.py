@@ -18,7 +18,7 @@ if getattr(sys.modules.get("store"), "__file__", "") is None:
 import numpy as np  # noqa: E402
 import pytest  # noqa: E402
 
-from store import (  # noqa: E402
+from hadim_store import (  # noqa: E402
     AffordanceEvent,
     AffordanceStat,
     EpisodeWrite,

@@ -12,7 +12,7 @@ import numpy as np
 import pytest
 from sqlalchemy import text
 
-from store import CodecError, codecs
+from hadim_store import CodecError, codecs
 
 STORE_DIR = Path(__file__).resolve().parents[2] / "store"
 

@@ -10,7 +10,7 @@ from pathlib import Path
 
 import pytest
 
-from store import Store
+from hadim_store import Store
 
 WRITERS = 8
 EPISODES = 6

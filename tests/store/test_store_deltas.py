@@ -8,7 +8,7 @@ import sqlite3
 import numpy as np
 import pytest
 
-from store import EpisodeWrite, Store, StoreError
+from hadim_store import EpisodeWrite, Store, StoreError
 
 
 def _state(i: int) -> tuple[dict[str, np.ndarray], dict]:
@@ -65,14 +65,14 @@ def _assert_reads_back(store: Store, name: str, i: int) -> None:
 def _kinds(store: Store, name: str) -> list[bool]:
     """Per checkpoint, whether it is a full snapshot."""
     with store.session_scope(write=False) as s:
-        from store.models import CheckpointRow
+        from hadim_store.models import CheckpointRow
 
         rows = s.query(CheckpointRow).order_by(CheckpointRow.iteration).all()
         return [r.base_iteration is None for r in rows if r.run_id == store_run_id(s, name)]
 
 
 def store_run_id(session, name: str) -> int:
-    from store.models import Run
+    from hadim_store.models import Run
 
     return session.query(Run).filter(Run.name == name).one().id
 

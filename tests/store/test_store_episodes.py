@@ -7,7 +7,7 @@ import dataclasses
 import numpy as np
 import pytest
 
-from store import CodecError, EpisodeWrite, Store, StoreError
+from hadim_store import CodecError, EpisodeWrite, Store, StoreError
 
 
 def _count(store, table: str) -> int:

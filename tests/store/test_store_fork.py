@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import pytest
 
-from store import RunStatus, StoreError
+from hadim_store import RunStatus, StoreError
 
 
 def _snapshot(store, name):

@@ -9,7 +9,7 @@ import time
 import pytest
 from sqlalchemy import text
 
-from store import RunLocked, StoreError
+from hadim_store import RunLocked, StoreError
 
 
 def _dead_pid() -> int:
@@ -19,7 +19,7 @@ def _dead_pid() -> int:
 
 
 def _set_holder(store, name, *, pid, heartbeat, host=None, owner="someone-else"):
-    from store.locking import this_host
+    from hadim_store.locking import this_host
 
     with store.engine.begin() as conn:
         conn.execute(

@@ -13,10 +13,10 @@ from alembic.autogenerate import compare_metadata
 from alembic.runtime.migration import MigrationContext
 from sqlalchemy import create_engine, inspect, text
 
-from store import SCHEMA_VERSION, SchemaError, Store, migrations, schema, upgrade_store
-from store.engine import resolve_url
-from store.models import Base
-from store.schema import SchemaState
+from hadim_store import SCHEMA_VERSION, SchemaError, Store, migrations, schema, upgrade_store
+from hadim_store.engine import resolve_url
+from hadim_store.models import Base
+from hadim_store.schema import SchemaState
 
 FIXTURES = Path(__file__).parents[1] / "fixtures"
 NEXT = SCHEMA_VERSION + 1
@@ -264,7 +264,7 @@ def test_a_dry_run_writes_nothing(tmp_path):
 
 
 def test_a_new_revision_file_is_numbered_after_the_head_and_plans(tmp_path, monkeypatch):
-    from store.migrations.__main__ import new_revision
+    from hadim_store.migrations.__main__ import new_revision
 
     folder = tmp_path / "versions"
     folder.mkdir()
@@ -285,11 +285,11 @@ def test_the_wheel_ships_the_alembic_environment():
     root = Path(__file__).parents[2]
     setup = tomllib.loads((root / "pyproject.toml").read_text())["tool"]["setuptools"]
     folder = root / "store" / "migrations"
-    data = {p.relative_to(folder) for pattern in setup["package-data"]["store.migrations"]
+    data = {p.relative_to(folder) for pattern in setup["package-data"]["hadim_store.migrations"]
             for p in folder.glob(pattern)}
     assert data == {p.relative_to(folder) for p in folder.rglob("*")
                     if p.is_file() and p.suffix not in (".py", ".pyc")}
-    assert {"store.migrations", "store.migrations.versions"} <= set(setup["packages"])
+    assert {"hadim_store.migrations", "hadim_store.migrations.versions"} <= set(setup["packages"])
 
 
 def _before_alembic(url: str, fill) -> None:
@@ -319,7 +319,7 @@ def test_processes_opening_an_old_store_at_once_upgrade_it_once(url, fill):
 
 _KILLED_MID_UPGRADE = """
 import sys
-from store import Store, migrations
+from hadim_store import Store, migrations
 migrations.VERSION_LOCATIONS.append(sys.argv[2])
 migrations.SCHEMA_VERSION += 1
 Store.open(sys.argv[1])

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import pytest
 
-from store import RunStatus, StoreError, UnknownRun
+from hadim_store import RunStatus, StoreError, UnknownRun
 
 
 def test_auto_names_and_round_trip(store):

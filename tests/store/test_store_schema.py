@@ -8,7 +8,7 @@ import sqlite3
 import pytest
 from sqlalchemy import text
 
-from store import SCHEMA_VERSION, SchemaError, Store, StoreError
+from hadim_store import SCHEMA_VERSION, SchemaError, Store, StoreError
 
 
 def _files(path):

@@ -5,8 +5,8 @@ from __future__ import annotations
 import pytest
 import sqlalchemy as sa
 
-from store import SchemaError, Store, StoreError
-from store.engine import resolve_url
+from hadim_store import SchemaError, Store, StoreError
+from hadim_store.engine import resolve_url
 
 
 def test_plain_postgresql_url_means_psycopg3():

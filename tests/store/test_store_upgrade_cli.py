@@ -15,9 +15,9 @@ import pytest
 from sqlalchemy import MetaData, create_engine, text
 
 from hadim_cli.app import app
-from store import Store, migrations, schema
-from store.engine import resolve_url
-from store.schema import SchemaState
+from hadim_store import Store, migrations, schema
+from hadim_store.engine import resolve_url
+from hadim_store.schema import SchemaState
 
 FIXTURES = Path(__file__).parents[1] / "fixtures"
 # runs show's dataset_sha256 of the fixtures' runs, as the hadim that wrote them computed it.

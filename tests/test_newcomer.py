@@ -1,0 +1,288 @@
+"""A newcomer's first hour: the design card's commands as written, output that fits 80
+columns, refusals before restoring, damage found wherever it is read, one-line messages.
+
+These run the installed `hadim` command in a process of its own, as a user does.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import re
+import shutil
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+
+from hadim_store.api import Store
+
+ROOT = Path(__file__).resolve().parents[1]
+HADIM = shutil.which("hadim", path=str(Path(sys.executable).parent)) or "hadim"
+SMALL = ("--set", "world.episode_length=25", "--set", 'evaluation.tasks=["move-robot"]')
+
+
+def hadim(*args: object, store: Path | None = None, cwd: Path | None = None,
+          env: dict | None = None) -> subprocess.CompletedProcess:
+    """The installed command; with `store`, named by HADIM_STORE (the usages as written)."""
+    environ = {k: v for k, v in os.environ.items() if k not in ("HADIM_STORE", "COLUMNS")}
+    if store is not None:
+        environ["HADIM_STORE"] = str(store)
+    environ.update(env or {})
+    return subprocess.run([HADIM, *map(str, args)], capture_output=True, text=True,
+                          cwd=cwd, env=environ, timeout=600)
+
+
+def ok(*args: object, **kw) -> subprocess.CompletedProcess:
+    result = hadim(*args, **kw)
+    assert result.returncode == 0, (args, result.stdout, result.stderr)
+    return result
+
+
+def one_error(result: subprocess.CompletedProcess, match: str = "", code: int = 2) -> str:
+    assert result.returncode == code, (result.returncode, result.stdout, result.stderr)
+    lines = result.stderr.strip().splitlines()
+    errors = [line for line in lines if line.startswith("error: ")]
+    assert len(errors) == 1 and "Traceback" not in result.stderr, result.stderr
+    assert match in errors[0], errors[0]
+    return errors[0]
+
+
+@pytest.fixture(scope="module")
+def store(tmp_path_factory) -> Path:
+    """run-1: 100 iterations in episodes of 25, evaluated on move-robot at 50 and 100."""
+    path = tmp_path_factory.mktemp("newcomer") / "s.sqlite"
+    ok("train", "-n", 100, "--eval-every", 50, *SMALL, "--store", path)
+    return path
+
+
+# --------------------------------------------------------------------------- 1. the card
+
+def test_the_design_cards_usages_work_as_written(store, tmp_path):
+    """`hadim affordances --timeline`, `hadim eval --task push-with-tool`: no run named, the
+    store's most recent is used and named on stderr."""
+    ok("fork", "run-1", "--at", 50, "--name", "newer", store=store)  # the most recent now
+    for args in (("affordances", "--timeline"), ("affordances",), ("runs", "show"),
+                 ("eval", "--task", "move-robot"), ("plot", "--out", tmp_path / "c.png")):
+        result = ok(*args, store=store)
+        assert "run newer (the store's most recent" in result.stderr, (args, result.stderr)
+    table = ok("eval", "--task", "push-with-tool", store=store).stdout
+    assert "push-with-tool at iteration 50: score" in table
+
+
+def test_an_empty_store_says_there_is_no_run_and_how_to_make_one(tmp_path):
+    empty = tmp_path / "empty.sqlite"
+    Store.open(empty).close()
+    for args in (("affordances", "--timeline"), ("eval", "--task", "push-with-tool"),
+                 ("plot",), ("runs", "show")):
+        line = one_error(hadim(*args, store=empty), "no run in")
+        assert "hadim train" in line
+    one_error(hadim("affordances", store=tmp_path / "none.sqlite"), "hadim train")
+
+
+def test_resume_continues_to_the_iterations_the_run_was_started_for(store):
+    ok("fork", "run-1", "--at", 50, "--name", "half", store=store)
+    ok("resume", "half", "--eval-every", 0, store=store)
+    info = json.loads(ok("runs", "show", "half", "--json", store=store).stdout)
+    assert info["iterations"] == 100 and info["status"] == "finished"
+
+
+def test_resume_of_a_finished_run_says_so_and_how_to_go_further(store):
+    line = one_error(hadim("resume", "run-1", store=store), "run-1 is finished at 100")
+    assert "hadim resume run-1 --iterations 200" in line
+    line = one_error(hadim("resume", "run-1", "-n", 60, store=store), "already has 100")
+    assert "--iterations 200" in line
+
+
+# --------------------------------------------------------------------------- 2. fast refusals
+
+def test_refusals_and_h_need_no_learner(store, tmp_path):
+    """What does not need the learner never imports it (torch alone takes seconds): the
+    table of H, and the refusals of a finished run, a run in use, a target outside the room.
+    docs/performance.md measures their times."""
+    bad = tmp_path / "bad.toml"
+    text = (ROOT / "configs" / "tasks" / "move-robot.toml").read_text()
+    bad.write_text(re.sub(r"points = \[.*?\]\]", "points = [[9.0, 9.0]]", text, flags=re.S))
+    ok("fork", "run-1", "--at", 50, "--name", "held", store=store)
+    commands = [["affordances", "run-1"], ["affordances", "run-1", "--json"],
+                ["resume", "run-1"], ["eval", "run-1", "--points", str(bad)],
+                ["resume", "held", "-n", "200"]]
+    script = (
+        "import json, sys\n"
+        "from hadim_cli.app import main\n"
+        "for args in json.loads(sys.argv[1]):\n"
+        "    try:\n"
+        f"        main(args + ['--store', {str(store)!r}])\n"
+        "    except SystemExit:\n"
+        "        pass\n"
+        "    print('loaded:', 'torch' in sys.modules,\n"
+        "          'hadim_cli.learner.explorer' in sys.modules)\n")
+    owner = f"{os.uname().nodename}:{os.getpid()}"
+    with Store.open(store, create=False) as st:
+        st.acquire_lock("held", owner)  # held by this live process
+    try:
+        out = subprocess.run([sys.executable, "-c", script, json.dumps(commands)],
+                             capture_output=True, text=True, check=True)
+    finally:
+        with Store.open(store, create=False) as st:
+            st.release_lock("held", owner)
+    loaded = [line for line in out.stdout.splitlines() if line.startswith("loaded:")]
+    assert loaded == ["loaded: False False"] * len(commands), out.stdout + out.stderr
+    for said in ("is outside the", "is finished at", "is in use"):
+        assert said in out.stderr, out.stderr
+
+
+# --------------------------------------------------------------------------- 3. 80 columns
+
+def _assert_fits(text: str, width: int = 80) -> None:
+    lines = text.splitlines()
+    assert lines and max(map(len, lines)) <= width, "\n".join(lines)
+    assert "…" not in text, text
+
+
+def test_tables_fit_80_columns_in_a_pipe_without_cutting_what_matters(store):
+    ok("fork", "run-1", "--name", "paper-goal-babbling-only-s4", store=store)
+    listing = ok("runs", "list", store=store).stdout  # a pipe: 80 columns
+    _assert_fits(listing)
+    with Store.open(store, create=False) as st:
+        records = st.list_runs()
+    for r in records:
+        row = next(line for line in listing.splitlines() if f" {r.name} " in line)
+        assert r.status.value in row and f" {r.iterations} " in row, row
+    wide = ok("runs", "list", "--wide", store=store).stdout
+    assert "run-1@100" in wide and "seed" in wide
+    timeline = ok("affordances", "run-1", "--timeline", store=store).stdout
+    _assert_fits(timeline)
+    table = [line for line in timeline.splitlines() if line[:1] in "┃│┏┡└"]
+    assert table and all(line[-1] in "┃│┓┩┘" for line in table), timeline  # borders kept
+    h = ok("affordances", "run-1", store=store).stdout
+    _assert_fits(h)
+    accepts = h.split("p_A on the push-object scene's objects", 1)[1].splitlines()[1:]
+    for line in accepts:  # a wrapped list of objects is indented under the first
+        assert line.startswith("  A") or line.startswith(" " * 12), accepts
+    _assert_fits(ok("eval", "run-1", "--task", "move-robot", store=store).stdout)
+    _assert_fits(ok("runs", "show", "run-1", store=store).stdout)
+
+
+# --------------------------------------------------------------------------- 4. damage
+
+READS = [("runs", "list"), ("runs", "show", "run-1"), ("affordances", "run-1"),
+         ("affordances", "run-1", "--timeline"), ("plot", "run-1", "--out", "{png}"),
+         ("eval", "run-1", "--task", "move-robot")]
+
+
+@pytest.mark.parametrize("offset", [0.15, 0.3, 0.45, 0.6, 0.75, 0.9])
+def test_damage_is_found_wherever_it_is_read(store, tmp_path, offset):
+    """8 KB of garbage at one offset of the file: on a run that `hadim store check` calls
+    damaged, every read is one short line naming it and a non-zero exit, never a silent 0."""
+    copy = tmp_path / "d.sqlite"
+    data = bytearray(store.read_bytes())
+    a = int(len(data) * offset)
+    data[a:a + 8192] = bytes((37 * i + 11) % 256 for i in range(len(data[a:a + 8192])))
+    copy.write_bytes(bytes(data))
+    check = hadim("store", "check", "--store", copy)
+    damaged = check.returncode != 0 and "run-1: readable" not in check.stdout
+    for args in READS:
+        args = tuple(str(a).format(png=tmp_path / "c.png") for a in args)
+        result = hadim(*args, "--store", copy)
+        assert "Traceback" not in result.stderr, (args, result.stderr)
+        if damaged:
+            line = one_error(result, code=result.returncode)
+            assert result.returncode != 0, (args, result.stdout, result.stderr)
+            assert "run-1" in line and len(line) <= 200, (args, line)
+            assert "{" not in line and "with text" not in line, line  # no row content
+        else:
+            assert result.returncode == 0 or len(result.stderr.strip().splitlines()) == 1, \
+                (args, result.stderr)
+
+
+# --------------------------------------------------------------------------- 5. the figure
+
+def test_the_timeline_figure_stays_legible_with_many_affordances(tmp_path):
+    from hadim_cli.plots import timeline_figure
+    from hadim_store.records import AffordanceEvent
+
+    spaces = ["robot.position", "robot.heading", "target.position", "target-robot",
+              "tool.position", "target-tool", "target.radius", "target.height", "action"]
+    events = []
+    for aid in range(24):
+        for k in range(6):  # a context change every 30 iterations
+            context = tuple(spaces[(aid + k + j) % len(spaces)] for j in range(1 + k % 3))
+            events.append(AffordanceEvent(400 + 30 * k + aid, aid, "created" if k == 0 else
+                                          "context_replaced", spaces[aid % len(spaces)],
+                                          "target.position", context, 0.5, {}))
+    fig = timeline_figure(events, 4000, tmp_path / "t.png", title="run x: timeline")
+    assert (tmp_path / "t.png").read_bytes().startswith(b"\x89PNG")
+    ax = fig.axes[0]
+    assert ax.get_xlabel() and ax.get_ylabel() and ax.get_title()
+    legend = ax.get_legend()
+    assert legend is not None and set(spaces) <= {t.get_text() for t in legend.get_texts()}
+    from matplotlib.backends.backend_agg import FigureCanvasAgg
+
+    renderer = FigureCanvasAgg(fig).get_renderer()
+    fig.draw(renderer)
+    texts = [t for t in [*ax.get_yticklabels(), *ax.get_xticklabels(), *ax.texts,
+                         *legend.get_texts(), ax.title, ax.xaxis.label, ax.yaxis.label]
+             if t.get_text() and t.get_visible()]
+    boxes = [t.get_window_extent(renderer) for t in texts]
+    for i, a in enumerate(boxes):
+        for j in range(i + 1, len(boxes)):
+            assert not a.overlaps(boxes[j]), (texts[i].get_text(), texts[j].get_text())
+
+
+# --------------------------------------------------------------------------- 6. messages
+
+def test_unknown_options_and_commands_are_one_line():
+    for args in (("runs", "list", "--bogus"), ("bogus",), ("runs", "bogus"),
+                 ("train", "--iterations", "x")):
+        result = hadim(*args)
+        one_error(result)
+        assert "╭" not in result.stderr and "Usage:" not in result.stderr, result.stderr
+
+
+def test_eval_help_lists_every_exact_level():
+    from hadim_cli.evaluation.exact import LEVELS
+
+    text = " ".join(ok("eval", "--help", env={"COLUMNS": "200"}).stdout.split())
+    exact = text.split("--exact", 1)[1]
+    assert all(level in exact[:400] for level in LEVELS), exact[:400]
+
+
+def test_messages_name_things_as_the_other_commands_do(store, tmp_path):
+    bad = tmp_path / "bad.toml"
+    bad.write_text("points = [[")
+    assert "task file" in one_error(hadim("eval", "run-1", "--points", bad, store=store))
+    for args in (("store", "check"), ("runs", "list")):
+        one_error(hadim(*args, "--store", tmp_path), "is a directory")
+
+
+def test_the_printed_store_size_is_the_files(tmp_path):
+    path = tmp_path / "s.sqlite"
+    result = ok("train", "-n", 50, "--eval-every", 0, *SMALL, "--store", path)
+    printed = float(re.search(r"store: .* \(([\d.]+) MB\)", result.stderr).group(1))
+    assert not Path(f"{path}-wal").exists() or Path(f"{path}-wal").stat().st_size == 0
+    assert printed == round(path.stat().st_size / 1e6, 1), (printed, path.stat().st_size)
+
+
+# --------------------------------------------------------------------------- 7. the code
+
+def test_the_commands_do_not_import_each_other_in_a_circle():
+    import ast
+
+    folder = ROOT / "hadim_cli" / "commands"
+    graph = {}
+    for path in folder.glob("*.py"):
+        names = set()
+        for node in ast.walk(ast.parse(path.read_text())):
+            if isinstance(node, ast.ImportFrom) and (node.module or "").startswith(
+                    "hadim_cli.commands"):
+                names |= {node.module.rsplit(".", 1)[-1]} if node.module != \
+                    "hadim_cli.commands" else {a.name for a in node.names}
+        graph[path.stem] = names - {path.stem}
+
+    def reaches(start: str, goal: str, seen: set) -> bool:
+        return any(n == goal or (n not in seen and reaches(n, goal, seen | {n}))
+                   for n in graph.get(start, ()))
+
+    assert not [m for m in graph if reaches(m, m, {m})], graph
