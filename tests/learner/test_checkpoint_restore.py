@@ -15,7 +15,7 @@ from test_state_round_trip import CACHES, assert_same
 from hadim_cli import runs
 from hadim_cli.config import with_overrides
 from hadim_cli.session import Session
-from store.api import Store
+from hadim_store.api import Store
 
 SEED = 3
 EPISODE = 25
