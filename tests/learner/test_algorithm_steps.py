@@ -1,5 +1,5 @@
 """Each step of Algorithms 1 and 2 on hand-built data: a one-line bug in any of them fails a
-test here (the bug → test table is in docs/testing.md).
+test here (docs/testing.md lists the behaviours and the mutation run that measures them).
 
 The data (`handmade.Room`): a differential drive whose displacement is a function of the
 action *and the heading*; or, with a fixed heading, of the action alone; or noise.
