@@ -84,6 +84,7 @@ def open_store(option: str | None, *, create: bool = True, writes: bool = True,
     damaged, rather than written into; for one that only reads, the findings are kept for
     `chosen_run` and `damaged_runs`."""
     from hadim_store import engine
+    from hadim_store.errors import DamagedStore
 
     where = store_location(option)
     opened[:] = [where]
@@ -95,7 +96,11 @@ def open_store(option: str | None, *, create: bool = True, writes: bool = True,
     if is_file and Path(where).is_dir():
         raise HadimError(f"{where} is a directory, not a store file")
     if is_file and Path(where).is_file() and Path(where).stat().st_size > 0:
-        engine.check_sqlite_file(Path(where), create=create)
+        try:
+            engine.check_sqlite_file(Path(where), create=create)
+        except DamagedStore as exc:  # where the schema is read: not even the runs can be read
+            raise HadimError(damage_line(run, " ".join(exc.finding.split()) or "unreadable",
+                                         writes=writes)) from None
         file_damage[:] = engine.quick_check(Path(where))
         if writes and file_damage:  # writing would spread the damage
             raise HadimError(damage_line(run, " ".join(file_damage[0].split()), writes=True))

@@ -124,8 +124,10 @@ def require_intact(path: Path) -> None:
 def _damaged(path: Path, finding: str) -> DamagedStore:
     """The refusal of a store SQLite finds damaged (its `finding`), before anything is written."""
     short = finding if len(finding) <= 60 else finding[:59] + "…"
-    return DamagedStore(f"the store is damaged ({short}); nothing was written: see `hadim "
-                        f"store check --store {path}`")
+    error = DamagedStore(f"the store is damaged ({short}); nothing was written: see `hadim "
+                         f"store check --store {path}`")
+    error.finding = finding
+    return error
 
 
 def make_engine(url: URL) -> Engine:

@@ -30,3 +30,6 @@ class CodecError(StoreError):
 
 class DamagedStore(StoreError):
     """The database file fails SQLite's own checks (`PRAGMA quick_check`) or cannot be read."""
+
+    finding: str = ""
+    """What SQLite found, as it said it."""

@@ -212,7 +212,8 @@ def test_the_store_comes_from_hadim_store(runner, tmp_path, trained):
 def test_runs_list_and_show(runner, trained):
     listed = json.loads(ok(runner, "runs", "list", "--json", "--store", trained).stdout)
     assert listed == [{"name": "run-1", "status": "finished", "seed": 0, "iterations": 100,
-                       "parent": None, "kind": "learner", "algorithm": "hadim"}]
+                       "parent": None, "damaged": False, "kind": "learner",
+                       "algorithm": "hadim"}]
     info = json.loads(ok(runner, "runs", "show", "run-1", "--json", "--store", trained).stdout)
     assert {"name", "status", "iterations", "seed", "parent", "fork_iteration", "affordances",
             "scores", "dataset_sha256", "created_at", "updated_at", "versions",

@@ -99,7 +99,7 @@ def runs_show(run: RunArg = None, store: StoreOption = None, as_json: JsonOption
 
     from hadim_cli import runs
 
-    with runs.open_store(store, create=False, writes=False) as st:
+    with runs.open_store(store, create=False, writes=False, run=run) as st:
         r = runs.chosen_run(st, run)
         run = r.name
         # |H| from the last episode's per-affordance stats: decoding the checkpoint's arrays
@@ -187,7 +187,7 @@ def affordances(
     if errors and (pa or timeline or out is not None):
         raise HadimError("--errors shows the models of H at one iteration: not with --pa, "
                          "--timeline or --out")
-    with runs.open_store(store, create=False, writes=False) as st:
+    with runs.open_store(store, create=False, writes=False, run=run) as st:
         record = runs.chosen_run(st, run)
         _refuse_baseline(record, "affordances")
         if at is not None and at > record.iterations:
@@ -394,7 +394,8 @@ def plot(
     from hadim_cli.plots import comparison_figure, competence_figure
 
     groups: dict[str, list] = {}
-    with runs.open_store(store, create=False, writes=False) as st:
+    with runs.open_store(store, create=False, writes=False,
+                         run=run[0] if run and len(run) == 1 else None) as st:
         run = run or [runs.chosen_run(st, None).name]
         for name in dict.fromkeys(run):
             record = runs.chosen_run(st, name)

@@ -62,7 +62,7 @@ def test_a_schema_2_store_from_before_alembic_upgrades_reads_and_resumes_exactly
     assert out.splitlines()[0] == f"{store}: schema version 2 -> {migrations.SCHEMA_VERSION}"
     assert "version table was added" in out
     assert "up to date" in ok(runner, "store", "upgrade", "--store", store)
-    listed = ok(runner, "runs", "list", "--store", store)
+    listed = ok(runner, "runs", "list", "--wide", "--store", store)
     assert "run-1" in listed and "run-2" in listed and "run-1@50" in listed
     one, two = show(runner, store, "run-1"), show(runner, store, "run-2")
     assert (one["dataset_sha256"], two["dataset_sha256"]) == (V2_RUN_1, V2_RUN_2)
