@@ -256,7 +256,8 @@ def render_eval(console: Console, result: TaskResult, iteration: int) -> None:
 
 def _points_table(result: TaskResult, iteration: int, caption: str | None,
                   with_start: bool) -> Table:
-    table = Table(title=f"{result.task} at iteration {iteration}: score {result.score:.3f}",
+    table = Table(title=f"{result.task} at iteration {iteration}: score {result.score:.3f}, "
+                  f"{result.in_zone}/{len(result.points)} points in the goal zone",
                   caption=caption)
     table.add_column("#", justify="right", no_wrap=True)
     for col in ("target", *(("start",) if with_start else ()), "final"):

@@ -28,6 +28,7 @@ REFUSALS = "tests/learner/test_p_a_refusals.py"
 NB = "tests/learner/test_neighbourhoods.py"
 NAV = "tests/learner/test_navigation.py"
 PL = "tests/learner/test_planner.py"
+CUR = "tests/baselines/test_curious.py"
 
 
 class Bug(NamedTuple):
@@ -965,6 +966,39 @@ BUGS = (
     Bug("spare-stagings-legacy-forgotten", "hadim_cli/config.py",
         '"route_search": False, "spare_stagings": False,', '"route_search": False,',
         "tests/test_config.py::test_a_run_stored_before_trips_were_searched_keeps_its_waypoints"),
+    # CURIOUS (Colas et al. 2019), each mechanism (issue 46)
+    Bug("curious-lp-shares-swapped", "hadim_cli/baselines/curious.py",
+        "return UNIFORM_SHARE / n + (1 - UNIFORM_SHARE) * np.asarray(lps) / total",
+        "return (1 - UNIFORM_SHARE) / n + UNIFORM_SHARE * np.asarray(lps) / total",
+        "tests/baselines/test_algorithms.py::test_learning_progress_and_module_probabilities"),
+    Bug("curious-her-keeps-module", "hadim_cli/baselines/curious.py",
+        "modules = np.random.choice(n, size=len(batch_indices), p=probs)",
+        "modules = obs['desired_goal'][:, 2 * n:].argmax(axis=1)",
+        f"{CUR}::test_modular_her_relabels_module_and_a_future_goal_of_the_same_episode"),
+    Bug("curious-her-any-step", "hadim_cli/baselines/curious.py",
+        "return (np.random.randint(current, length) + start) % self.buffer_size",
+        "return (np.random.randint(0, length) + start) % self.buffer_size",
+        f"{CUR}::test_modular_her_relabels_module_and_a_future_goal_of_the_same_episode"),
+    Bug("curious-her-final-step", "hadim_cli/baselines/curious.py",
+        "return (np.random.randint(current, length) + start) % self.buffer_size",
+        "return (length - 1 + start) % self.buffer_size",
+        f"{CUR}::test_modular_her_relabels_module_and_a_future_goal_of_the_same_episode"),
+    Bug("curious-her-achieved-not-reencoded", "hadim_cli/baselines/curious.py",
+        'nxt["achieved_goal"] = encode_goals(entity_positions(nxt["observation"], modules),',
+        'nxt["achieved_goal"] = nxt["achieved_goal"] + 0 * encode_goals(entity_positions('
+        'nxt["observation"], modules),',
+        f"{CUR}::test_modular_her_relabels_module_and_a_future_goal_of_the_same_episode"),
+    Bug("curious-descriptor-misplaced", "hadim_cli/baselines/curious.py",
+        "out[rows, 2 * n_modules + modules] = 1.0", "out[rows, 2 * n_modules] = 1.0",
+        f"{CUR}::test_encoding_of_many_goals_is_the_env_encoding"),
+    Bug("curious-wrong-entity", "hadim_cli/baselines/curious.py",
+        "start = np.where(modules == 0, 0, 2 + 2 * modules)",
+        "start = np.where(modules == 0, 0, 4 + 2 * modules)",
+        f"{CUR}::test_encoding_of_many_goals_is_the_env_encoding"),
+    Bug("curious-k-not-4", "hadim_cli/baselines/agents.py",
+        'HER_PARAMS: dict[str, Any] = {"n_sampled_goal": 4,',
+        'HER_PARAMS: dict[str, Any] = {"n_sampled_goal": 2,',
+        f"{CUR}::test_modular_her_replays_four_relabelled_transitions_per_real_one"),
 )
 
 

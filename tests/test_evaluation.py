@@ -4,7 +4,13 @@ import numpy as np
 import pytest
 
 from hadim_cli.errors import HadimError
-from hadim_cli.evaluation.metric import distance_error, point_error, remaining_share, task_score
+from hadim_cli.evaluation.metric import (
+    distance_error,
+    heading_error,
+    point_error,
+    remaining_share,
+    task_score,
+)
 from hadim_cli.evaluation.tasks import load_task, load_task_file, task_names
 
 
@@ -18,7 +24,7 @@ def test_metric():
     assert point_error((1, 0), (1.2, 0), (1, 0)) == 1.0
     assert task_score([1.0, 1.0]) == 0.0
     assert task_score([0.0, 0.0]) == 1.0
-    with pytest.raises(ValueError):
+    with pytest.raises(ValueError, match="^a task needs at least one point$"):
         task_score([])
 
 
@@ -125,3 +131,74 @@ def test_the_remaining_share_is_the_error_so_far_unclipped():
     assert remaining_share((0.5, 0), (0, 0), (1, 0)) == pytest.approx(0.5)
     assert remaining_share((1, 0.25), (0, 0), (1, 0)) == pytest.approx(0.25)
     assert remaining_share((-1, 0), (0, 0), (1, 0)) == pytest.approx(2.0)  # pushed away
+    assert remaining_share((1, 1), (1, 3), (1, 0)) == pytest.approx(1 / 3)   # a share of 3 m
+    assert remaining_share((0, 0), (0.2, 0), (0.2, 0.1)) == pytest.approx(np.hypot(0.2, 0.1) / 0.1)
+
+
+def test_each_point_is_scored_by_the_share_of_its_distance_left_and_the_task_by_their_mean():
+    """The metric of §5.1 through `evaluate`: a point's error is min(1, final / initial
+    distance of the driven entity to the point), from where the task's scene puts it to
+    where the attempt leaves it; the task's score is 1 − the mean error. A robot driven
+    straight ahead (heading 0) for a few actions gets part of the way to a point ahead of it,
+    none of the way to one behind it."""
+    from dataclasses import replace
+
+    from hadim_cli.config import load_config
+    from hadim_cli.evaluation.runner import evaluate
+    from hadim_cli.learner.explorer import Learner
+    from hadim_cli.learner.goals import Attempt
+    from hadim_cli.learner.spaces import ACTION, Rows, parse_space
+    from hadim_cli.world.world import World
+
+    config = load_config()
+    learner = Learner(config.learner, World(config.world).layout)
+    aff = learner.fitter.new_affordance(learner.hierarchy.allocate_id(), ACTION,
+                                        parse_space("robot.position"), (), Rows.empty(), 0,
+                                        np.random.default_rng(0))
+    learner.hierarchy.add(aff, 0)
+
+    def straight_ahead(aff, binding, goal, actuator, budget):
+        while not actuator.exhausted:
+            actuator.act(np.array([1.0, 1.0]))
+        return Attempt(1.0, 1.0, actuator.used)
+
+    learner.planner.reach = straight_ahead
+    task = replace(load_task("move-robot"), points=((1.0, 0.0), (-0.5, 0.0), (0.8, 0.4)),
+                   budget=4)
+    result = evaluate(learner, config.world, task)
+    world = World(config.world)
+    world.reset(scene=task.scene)
+    for _ in range(task.budget):
+        world.step(np.array([1.0, 1.0]))
+    final = np.asarray(world.robot_pose()[:2])
+    start = np.array([task.scene.robot_x, task.scene.robot_y])
+    errors = []
+    for point, p in zip(task.points, result.points, strict=True):
+        np.testing.assert_allclose(p.start, start, atol=1e-9)
+        np.testing.assert_allclose(p.final, final, atol=1e-9)
+        expected = min(1.0, np.linalg.norm(np.subtract(point, final))
+                       / np.linalg.norm(np.subtract(point, start)))
+        assert p.error == pytest.approx(expected, abs=1e-12)
+        errors.append(expected)
+    assert 0.0 < errors[0] < 0.9 and errors[1] == 1.0 and 0.0 < errors[2] < 1.0
+    assert result.score == pytest.approx(1.0 - np.mean(errors), abs=1e-12)
+
+
+def test_a_heading_is_scored_by_the_share_of_its_angle_left_the_short_way_round():
+    """`heading_error` (pose tasks): min(1, final / initial angle to the wanted heading),
+    each angle the short way round (turning past ±π is no detour); a heading wanted from the
+    start scores 0 while kept within 0.05 rad, 1 once left further."""
+    assert heading_error(0.0, 0.0, np.pi / 2) == 1.0                      # did not turn
+    assert heading_error(0.0, np.pi / 2, np.pi / 2) == 0.0                # turned all the way
+    assert heading_error(0.0, np.pi / 4, np.pi / 2) == pytest.approx(0.5)
+    assert heading_error(0.0, -np.pi / 2, np.pi / 2) == 1.0               # worse is capped
+    # Across ±π: from 3 rad to −3 rad is 0.28 rad, not 6.
+    assert heading_error(3.0, -3.1, -3.0) == pytest.approx(0.1 / (2 * np.pi - 6.0))
+    assert heading_error(-3.0, 3.0 + 2 * np.pi, 3.0) == 0.0
+    assert heading_error(1.0, 1.5, 1.0 + 4 * np.pi) == pytest.approx(1.0)
+    # Wanted from the start: kept within 0.05 rad, else lost.
+    assert heading_error(0.3, 0.33, 0.3) == 0.0
+    assert heading_error(0.3, 0.3 - 0.0499, 0.3) == 0.0
+    assert heading_error(0.3, 0.3 + 0.051, 0.3) == 1.0
+    assert heading_error(0.3, 0.3 - 0.2, 0.3) == 1.0
+    assert heading_error(0.3, 0.3 + 2.0, 0.3) == 1.0

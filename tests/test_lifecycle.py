@@ -34,6 +34,8 @@ SHORT_EPISODES = ("--set", "world.episode_length=50")
 # The subprocess tests: long enough to interrupt mid-way, short enough to finish quickly.
 N_PROC = 400
 
+pytestmark = pytest.mark.scenario  # whole runs through the CLI: seconds each
+
 
 # --------------------------------------------------------------------------- helpers
 

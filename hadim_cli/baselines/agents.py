@@ -23,7 +23,7 @@ from typing import Any
 
 import numpy as np
 
-from hadim_cli.baselines.curious import ModularGoalEnv
+from hadim_cli.baselines.curious import ModularGoalEnv, modular_her_buffer
 from hadim_cli.baselines.env import Actions, GoalWorldEnv, choice
 from hadim_cli.baselines.qlearning import QLearningParams, TabularQ
 from hadim_cli.baselines.rewards import Reward
@@ -55,6 +55,8 @@ A2C_PARAMS: dict[str, Any] = {"learning_rate": 7e-4, "n_steps": 5, "gamma": 0.99
                               "ent_coef": 0.0}
 """SB3's A2C defaults (RMSprop, n_steps 5), one environment."""
 HER_PARAMS: dict[str, Any] = {"n_sampled_goal": 4, "goal_selection_strategy": "future"}
+CURIOUS_HER: dict[str, Any] = {**HER_PARAMS, "modular": True}
+"""CURIOUS's modular HER: module and goal relabelled (`curious.modular_her_buffer`)."""
 
 
 @dataclass(frozen=True)
@@ -71,6 +73,9 @@ class BaselineConfig:
     """Iterations between checkpoints (--checkpoint-every; default --eval-every, else 1000);
     evaluations also end a chunk."""
     eval_every: int = 1000
+    eval_at: tuple[int, ...] = ()
+    """Iterations evaluated at besides the multiples of `eval_every` (a log-spaced schedule,
+    `schedule.log_schedule`); each a multiple of `multiple`."""
     episode_length: int = 1000
     """Actions before an episode is truncated (the paper's 1000)."""
     n_envs: int = 1
@@ -78,6 +83,8 @@ class BaselineConfig:
     steps of every environment."""
     params: dict[str, Any] = field(default_factory=dict)
     world: dict[str, Any] = field(default_factory=dict)
+    variant: str = "paper"
+    """The protocol's variant (`variants.Variant`): the paper's, or the practitioner's fix."""
 
     def to_dict(self) -> dict[str, Any]:
         return {"kind": "baseline", "baseline": asdict(self)}
@@ -132,7 +139,7 @@ def make_config(algorithm: str, task: str, reward: str, actions: str, horizon: i
         raise HadimError(why)
     _check_envs(algo, n_envs)
     params = {Algorithm.Q_LEARNING: asdict(QLearningParams()), Algorithm.DQN: DQN_PARAMS,
-              Algorithm.A2C: A2C_PARAMS, Algorithm.CURIOUS: {**DQN_PARAMS, "her": HER_PARAMS}}
+              Algorithm.A2C: A2C_PARAMS, Algorithm.CURIOUS: {**DQN_PARAMS, "her": CURIOUS_HER}}
     chosen = dict(params[algo])
     multiple = chunk_multiple(chosen, n_envs)
     for option, value in (("--eval-every", eval_every), ("--checkpoint-every", checkpoint_every)):
@@ -150,7 +157,9 @@ def make_config(algorithm: str, task: str, reward: str, actions: str, horizon: i
 
 
 def read_config(stored: dict[str, Any]) -> BaselineConfig:
-    return BaselineConfig(**stored["baseline"])
+    values = dict(stored["baseline"])
+    values["eval_at"] = tuple(values.get("eval_at", ()))
+    return BaselineConfig(**values)
 
 
 def is_baseline(stored: dict[str, Any]) -> bool:
@@ -159,8 +168,18 @@ def is_baseline(stored: dict[str, Any]) -> bool:
 
 # --------------------------------------------------------------------------- agents
 
+ENV_PARAMS = ("reward_scale",)
+"""Parameters of the environment, not of the algorithm (`variants`)."""
+POLICY_PARAMS = ("goal_frame",)
+
+
 def environment(cfg: BaselineConfig) -> GoalWorldEnv:
-    return GoalWorldEnv(cfg.task, cfg.actions, cfg.reward, cfg.world_config, cfg.episode_length)
+    return GoalWorldEnv(cfg.task, cfg.actions, cfg.reward, cfg.world_config, cfg.episode_length,
+                        reward_scale=float(cfg.params.get("reward_scale", 1.0)))
+
+
+def _algorithm_params(cfg: BaselineConfig) -> dict[str, Any]:
+    return {k: v for k, v in cfg.params.items() if k not in ENV_PARAMS + POLICY_PARAMS}
 
 
 class QAgent:
@@ -170,7 +189,7 @@ class QAgent:
         self.base = environment(cfg)
         self.env = self.base
         self.bases = [self.base]
-        self.q = TabularQ(self.base, QLearningParams(**cfg.params), cfg.horizon,
+        self.q = TabularQ(self.base, QLearningParams(**_algorithm_params(cfg)), cfg.horizon,
                           np.random.default_rng(seed))
 
     @property
@@ -203,10 +222,12 @@ def _recording(buffer_class: type) -> type:
 
         def add(self, obs, next_obs, action, reward, done, infos):  # noqa: PLR0913
             timeout = [bool(i.get("TimeLimit.truncated", False)) for i in infos]
-            self.log.append(({k: np.array(v) for k, v in obs.items()},
-                             {k: np.array(v) for k, v in next_obs.items()},
-                             np.array(action), np.array(reward), np.array(done),
-                             np.array(timeout)))
+            row = ({k: np.array(v) for k, v in obs.items()},
+                   {k: np.array(v) for k, v in next_obs.items()},
+                   np.array(action), np.array(reward), np.array(done), np.array(timeout))
+            if getattr(self, "copy_info_dict", False):  # HER recomputing a guided reward
+                row += ({k: np.stack([i[k] for i in infos]) for k in INFO_KEYS},)
+            self.log.append(row)
             super().add(obs, next_obs, action, reward, done, infos)
 
     Recording.__name__ = f"Recording{buffer_class.__name__}"
@@ -227,6 +248,8 @@ def _horizon(algo_class: type) -> type:
     return Horizon
 
 
+INFO_KEYS = ("chain_before", "chain_after")
+"""What a relabelled guided reward reads from a transition's info (kept with its row)."""
 _COUNTERS = ("num_timesteps", "_n_calls", "_n_updates", "_episode_num", "exploration_rate",
              "_current_progress_remaining")
 _BUFFER_PARTS = ("obs", "next_obs")
@@ -247,16 +270,28 @@ class SB3Agent:
             ModularGoalEnv(b) if self.algorithm is Algorithm.CURIOUS else b for b in self.bases]
         self.base, self.env = self.bases[0], self.envs[0]
         vec = DummyVecEnv([lambda e=e: e for e in self.envs])
-        params = dict(cfg.params)
+        params = _algorithm_params(cfg)
         common = {"policy": "MultiInputPolicy", "env": vec, "seed": seed, "device": "cpu",
                   "verbose": 0}
+        if cfg.params.get("goal_frame"):
+            from hadim_cli.baselines.features import goal_frame_extractor
+
+            slots = self.envs[0].n_modules if self.algorithm is Algorithm.CURIOUS else 1
+            common["policy_kwargs"] = {
+                "features_extractor_class": goal_frame_extractor(),
+                "features_extractor_kwargs": {"slots": slots}}
         if self.algorithm is Algorithm.A2C:
             self.model = _horizon(A2C)(**common, **params)
         else:
-            her = params.pop("her", None)
+            her = dict(params.pop("her", None) or {}) or None
+            modular = bool(her and her.pop("modular", False))
             buffer = _recording(HerReplayBuffer if her else DictReplayBuffer)
+            if modular:
+                buffer = modular_her_buffer(buffer)
             self.model = _horizon(DQN)(**common, **params, replay_buffer_class=buffer,
                                        replay_buffer_kwargs=her)
+            if modular:
+                self.model.replay_buffer.module_probabilities = self.envs[0].probabilities
         self.model.horizon = cfg.horizon
         # A logger that writes nowhere: SB3's own makes a new directory under the system's
         # temporary one at every `learn` call (one per chunk: thousands per sweep).
@@ -333,6 +368,9 @@ def _rows(log: list[tuple]) -> dict[str, np.ndarray]:
             out[f"buffer.{part}.{key}"] = np.stack([row[index][key] for row in log])
     for name, index in (("action", 2), ("reward", 3), ("done", 4), ("timeout", 5)):
         out[f"buffer.{name}"] = np.stack([row[index] for row in log])
+    if len(log[0]) > 6:
+        for key in INFO_KEYS:
+            out[f"buffer.info.{key}"] = np.stack([row[6][key] for row in log])
     return out
 
 
@@ -344,6 +382,9 @@ def _replay(buffer, rows: dict[str, np.ndarray]) -> None:
         obs = {k: rows[f"buffer.obs.{k}"][i] for k in keys}
         nxt = {k: rows[f"buffer.next_obs.{k}"][i] for k in keys}
         infos = [{"TimeLimit.truncated": bool(t)} for t in rows["buffer.timeout"][i]]
+        if "buffer.info.chain_before" in rows:
+            for e, info in enumerate(infos):
+                info.update({k: rows[f"buffer.info.{k}"][i][e] for k in INFO_KEYS})
         buffer.add(obs, nxt, rows["buffer.action"][i], rows["buffer.reward"][i],
                    rows["buffer.done"][i], infos)
 

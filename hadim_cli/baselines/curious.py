@@ -15,11 +15,18 @@ SB3 lacks: the modular goal encoding and the module choice.
 - Goals: the task's own goal for the task's module; for another module a point drawn the same
   way around that entity's start (the robot: anywhere in the goal box).
 
-Deviations from the paper's CURIOUS (documented in docs/algorithm.md): DQN for DDPG (4
+- Modular HER (`modular_her_buffer`, runs whose config has `her.modular`): a relabelled
+  transition gets a module drawn with the same LP probabilities and, as its goal, that
+  module's outcome (its entity's position) at a future step of the episode (k = 4 relabelled
+  per real transition); achieved goals are re-encoded in that module and the reward
+  recomputed — so an episode spent on the robot's module also teaches the target's.
+
+Deviations from the paper's CURIOUS (documented in docs/baselines.md): DQN for DDPG (4
 discrete actions); one process for 19 workers; outcomes of every episode feed LP (the paper
 uses 10 % greedy self-evaluation episodes: at 1000 actions per episode, 50 000 iterations
-hold too few of them); one HER buffer, not per-module buffers weighted by LP; HER relabels the
-goal within the episode's module, not the module.
+hold too few of them); one HER buffer, not per-module buffers weighted by LP (the module of
+a relabelled transition is drawn by LP instead). Runs stored before modular HER relabel the
+goal within the episode's module only.
 """
 
 from __future__ import annotations
@@ -55,6 +62,83 @@ def module_probabilities(lps: list[float]) -> np.ndarray:
     if total <= 0:
         return np.full(n, 1.0 / n)
     return UNIFORM_SHARE / n + (1 - UNIFORM_SHARE) * np.asarray(lps) / total
+
+
+def entity_positions(observations: np.ndarray, modules: np.ndarray) -> np.ndarray:
+    """Each row's position of module `modules[i]`'s entity: the robot (0) at columns 0-1 of
+    the observation, object k (k ≥ 1) at columns 2 + 2k, 3 + 2k (after cos, sin)."""
+    obs = np.asarray(observations)
+    modules = np.asarray(modules, dtype=np.intp)
+    start = np.where(modules == 0, 0, 2 + 2 * modules)
+    rows = np.arange(len(obs))
+    return np.stack([obs[rows, start], obs[rows, start + 1]], axis=1)
+
+
+def encode_goals(positions: np.ndarray, modules: np.ndarray, n_modules: int) -> np.ndarray:
+    """`ModularGoalEnv.encode` of many (position, module) pairs: one (x, y) slot per module,
+    only the module's filled, then a one-hot module descriptor."""
+    modules = np.asarray(modules, dtype=np.intp)
+    out = np.zeros((len(modules), 3 * n_modules), dtype=np.float32)
+    rows = np.arange(len(modules))
+    out[rows, 2 * modules] = positions[:, 0]
+    out[rows, 2 * modules + 1] = positions[:, 1]
+    out[rows, 2 * n_modules + modules] = 1.0
+    return out
+
+
+def modular_her_buffer(buffer_class: type) -> type:
+    """`buffer_class` (SB3's `HerReplayBuffer`, future strategy) relabelling module and goal:
+    each relabelled transition gets a module drawn from `module_probabilities` (set by the
+    agent: the LP probabilities of the environment's modules) and that module's outcome at a
+    future step of its episode as goal. Draws from numpy's global generator, as SB3's HER
+    sampling does (seeded and checkpointed with it)."""
+
+    class ModularHer(buffer_class):  # type: ignore[misc, valid-type]
+        module_probabilities = None
+        """() → probabilities of the modules (set after construction)."""
+
+        def _future_indices(self, batch_indices, env_indices) -> np.ndarray:
+            start = self.ep_start[batch_indices, env_indices]
+            length = self.ep_length[batch_indices, env_indices]
+            current = (batch_indices - start) % self.buffer_size
+            return (np.random.randint(current, length) + start) % self.buffer_size
+
+        def _get_virtual_samples(self, batch_indices, env_indices, env=None):
+            obs = {k: v[batch_indices, env_indices, :] for k, v in self.observations.items()}
+            nxt = {k: v[batch_indices, env_indices, :]
+                   for k, v in self.next_observations.items()}
+            n = obs["desired_goal"].shape[-1] // 3
+            probs = (np.full(n, 1.0 / n) if self.module_probabilities is None
+                     else self.module_probabilities())
+            modules = np.random.choice(n, size=len(batch_indices), p=probs)
+            future = self._future_indices(batch_indices, env_indices)
+            later = self.next_observations["observation"][future, env_indices]
+            goals = encode_goals(entity_positions(later, modules), modules, n)
+            obs["achieved_goal"] = encode_goals(entity_positions(obs["observation"], modules),
+                                                modules, n)
+            nxt["achieved_goal"] = encode_goals(entity_positions(nxt["observation"], modules),
+                                                modules, n)
+            obs["desired_goal"] = goals
+            nxt["desired_goal"] = goals
+            rewards = self.env.env_method("compute_reward", nxt["achieved_goal"], goals,
+                                          [{}] * len(goals), indices=[0])[0].astype(np.float32)
+            return self._samples(obs, nxt, batch_indices, env_indices, rewards, env)
+
+        def _samples(self, obs, nxt, batch_indices, env_indices, rewards, env):
+            from stable_baselines3.common.type_aliases import DictReplayBufferSamples
+
+            obs, nxt = self._normalize_obs(obs, env), self._normalize_obs(nxt, env)
+            dones = (self.dones[batch_indices, env_indices]
+                     * (1 - self.timeouts[batch_indices, env_indices]))
+            return DictReplayBufferSamples(
+                observations={k: self.to_torch(v) for k, v in obs.items()},
+                actions=self.to_torch(self.actions[batch_indices, env_indices]),
+                next_observations={k: self.to_torch(v) for k, v in nxt.items()},
+                dones=self.to_torch(dones).reshape(-1, 1),
+                rewards=self.to_torch(self._normalize_reward(rewards.reshape(-1, 1), env)))
+
+    ModularHer.__name__ = f"Modular{buffer_class.__name__}"
+    return ModularHer
 
 
 class ModularGoalEnv(gym.Wrapper):
@@ -100,8 +184,7 @@ class ModularGoalEnv(gym.Wrapper):
 
     def reset(self, *, seed: int | None = None, options: dict | None = None):
         obs, info = self.env.reset(seed=seed, options=options)
-        lps = [learning_progress(o) for o in self.outcomes]
-        self.module = int(self.base.np_random.choice(self.n_modules, p=module_probabilities(lps)))
+        self.module = int(self.base.np_random.choice(self.n_modules, p=self.probabilities()))
         if self.module == self.task_module:
             goal = obs["desired_goal"]
         else:
@@ -125,7 +208,7 @@ class ModularGoalEnv(gym.Wrapper):
         obs, _, terminated, truncated, info = self.env.step(action)
         out = self._wrap(obs)
         reward = float(self.compute_reward(out["achieved_goal"], out["desired_goal"], info))
-        success = reward == GOAL_REWARD
+        success = reward == GOAL_REWARD * self.base.reward_scale
         # The base env ends the episode at the task's goal; here the module's goal does.
         terminated = success or bool(info.get("contact"))
         truncated = not terminated and self.base.steps >= self.base.max_steps
@@ -136,10 +219,15 @@ class ModularGoalEnv(gym.Wrapper):
         return out, reward, terminated, truncated, info
 
     def compute_reward(self, achieved_goal, desired_goal, info) -> np.ndarray:
-        """Sparse, on the active module's slot (both goals carry the same module)."""
+        """Sparse, on the active module's slot (both goals carry the same module), times the
+        base environment's reward scale."""
         d = np.asarray(achieved_goal, np.float64) - np.asarray(desired_goal, np.float64)
         dist = np.sqrt(np.sum(d * d, axis=-1))
-        return np.where(dist <= GOAL_RADIUS, GOAL_REWARD, STEP_PENALTY)
+        return np.where(dist <= GOAL_RADIUS, GOAL_REWARD, STEP_PENALTY) * self.base.reward_scale
+
+    def probabilities(self) -> np.ndarray:
+        """The module probabilities of the next reset (LP of each module's outcomes)."""
+        return module_probabilities([learning_progress(o) for o in self.outcomes])
 
     # ------------------------------------------------------------------ evaluation, state
 

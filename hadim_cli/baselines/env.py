@@ -84,7 +84,7 @@ class GoalWorldEnv(gym.Env):
 
     def __init__(self, task: str = "move-robot", actions: str = "discrete",
                  reward: str = "sparse", world: WorldConfig | None = None,
-                 max_steps: int = MAX_STEPS):
+                 max_steps: int = MAX_STEPS, reward_scale: float = 1.0):
         self.actions = choice(Actions, actions, "actions")
         self.reward_kind = choice(Reward, reward, "reward")
         base = world or WorldConfig()
@@ -93,6 +93,9 @@ class GoalWorldEnv(gym.Env):
         self.radius = GOAL_RADIUS
         self.max_steps = max_steps
         """Actions before an episode is truncated (the paper's 1000; smaller in tests)."""
+        self.reward_scale = reward_scale
+        """Factor of every reward the learner sees (1: the paper's +1000 / −5; 0.001 brings
+        values near ±1, `variants.Variant.FIXED`); runs record the unscaled reward."""
         n = len(self.task.objects)
         self._dims = 4 + 2 * n
         box = np.full(self._dims, HALF_ROOM, dtype=np.float32)
@@ -145,6 +148,7 @@ class GoalWorldEnv(gym.Env):
                           desired, self.radius)
         terminated = reward == GOAL_REWARD
         info["is_success"] = terminated
+        raw, reward = reward, reward * self.reward_scale
         contact = self.task.forbidden_contact
         if contact is not None and contact in self.world.last_contacts:
             terminated = True
@@ -152,7 +156,7 @@ class GoalWorldEnv(gym.Env):
         truncated = not terminated and len(self._taken) >= self.max_steps
         if self.recorder is not None:
             self.recorder(wheels, np.concatenate([before[self._obs_index], self._goal]),
-                          np.concatenate([self._flat[self._obs_index], self._goal]), reward,
+                          np.concatenate([self._flat[self._obs_index], self._goal]), raw,
                           terminated, truncated)
         return obs, reward, terminated, truncated, info
 
@@ -160,12 +164,12 @@ class GoalWorldEnv(gym.Env):
         """The task's reward, vectorised over any leading batch shape. The guided reward
         reads the chain's positions before and after the action from `info`."""
         if self.reward_kind is Reward.SPARSE:
-            return sparse_reward(achieved_goal, desired_goal, self.radius)
+            return sparse_reward(achieved_goal, desired_goal, self.radius) * self.reward_scale
         before = _info_chains(info, "chain_before")
         after = _info_chains(info, "chain_after").copy()
         after[..., -1, :] = np.asarray(achieved_goal).reshape(after[..., -1, :].shape)
         return guided_reward(before, after, desired_goal, self.radius).reshape(
-            np.shape(achieved_goal)[:-1])
+            np.shape(achieved_goal)[:-1]) * self.reward_scale
 
     # ------------------------------------------------------------------ helpers
 

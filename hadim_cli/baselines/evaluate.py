@@ -20,6 +20,10 @@ from hadim_cli.evaluation.metric import point_error, task_score
 from hadim_cli.evaluation.runner import PointResult, TaskResult, segment_distance
 from hadim_cli.evaluation.tasks import Task
 
+STUCK = 20
+"""Actions after which a policy whose observation has not changed at all (pressing against a
+wall) is taken to stay so: its point ends there, counted as using the whole budget."""
+
 
 def check_fits(cfg: BaselineConfig, task: Task) -> None:
     """A baseline drives the entity it trained for: refuse a task of another kind."""
@@ -47,9 +51,15 @@ def evaluate_policy(agent, cfg: BaselineConfig, task: Task) -> TaskResult:
         start = obs["observation"][entity].astype(float)
         robot = obs["observation"][:2].astype(float)
         used, contact, path, deviation = 0, False, 0.0, 0.0
+        still = 0
         while used < task.budget:
+            last = obs["observation"]
             obs, _, terminated, _, info = env.step(agent.act(obs))
             used += 1
+            still = still + 1 if np.array_equal(obs["observation"], last) else 0
+            if still >= STUCK:  # the same input, the same greedy action: nothing will change
+                used = task.budget
+                break
             contact = bool(info.get("contact"))
             now = obs["observation"][:2].astype(float)
             path += float(np.linalg.norm(now - robot))
@@ -62,4 +72,5 @@ def evaluate_policy(agent, cfg: BaselineConfig, task: Task) -> TaskResult:
         error = 1.0 if contact else point_error(start, final, np.asarray(point))
         results.append(PointResult(tuple(point), tuple(start.tolist()), tuple(final.tolist()),
                                    error, used, -1, contact, path, 0, deviation))
-    return TaskResult(task.name, task_score([r.error for r in results]), tuple(results))
+    return TaskResult(task.name, task_score([r.error for r in results]), tuple(results),
+                      budget=task.budget)

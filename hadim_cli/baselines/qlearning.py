@@ -32,6 +32,29 @@ class QLearningParams:
     """Sectors of the robot's heading."""
     eps_end: float = 0.05
     eps_fraction: float = 0.1
+    frame: str = "room"
+    """How Ω is discretised: "room" (the paper's: every position in the room's grid, the
+    heading in sectors) or "robot" (each object and the goal seen from the robot: bearing in
+    `headings` sectors of the robot's frame, distance in the `DISTANCES` rings)."""
+
+
+DISTANCES = (0.1, 0.2, 0.3, 0.5, 0.8, 1.2, 2.0)
+"""Ring edges (m) of the robot-frame discretisation: finer near, where the goal zone is."""
+
+
+def robot_frame_cells(obs: dict[str, np.ndarray], headings: int) -> list[int]:
+    """(sector, ring) of each object relative to the robot, then of the goal relative to the
+    goal entity (the achieved goal), in the robot's frame."""
+    o, g = obs["observation"].astype(np.float64), obs["desired_goal"].astype(np.float64)
+    heading = math.atan2(o[3], o[2])
+    vectors = [o[4 + 2 * k: 6 + 2 * k] - o[:2] for k in range((len(o) - 4) // 2)]
+    vectors.append(g - obs["achieved_goal"].astype(np.float64))
+    cells = []
+    for v in vectors:
+        bearing = (math.atan2(v[1], v[0]) - heading + math.pi) % (2 * math.pi)
+        cells.append(int(bearing / (2 * math.pi) * headings) % headings)
+        cells.append(int(np.searchsorted(DISTANCES, math.hypot(v[0], v[1]))))
+    return cells
 
 
 class TabularQ:
@@ -51,6 +74,11 @@ class TabularQ:
     # ------------------------------------------------------------------ discretisation
 
     def state(self, obs: dict[str, np.ndarray]) -> int:
+        if self.p.frame == "robot":
+            key = 0
+            for c in robot_frame_cells(obs, self.p.headings):
+                key = key * max(self.p.headings, len(DISTANCES) + 1) + c
+            return key
         o, g = obs["observation"], obs["desired_goal"]
         points = np.concatenate([o[:2], o[4:], g]).astype(np.float64)
         cells = np.clip(((points + HALF_ROOM) / (2 * HALF_ROOM) * self.p.cells).astype(int),

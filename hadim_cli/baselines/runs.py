@@ -12,7 +12,7 @@ latest checkpoint, replaying the replay-buffer rows of every checkpoint up to it
 from __future__ import annotations
 
 import dataclasses
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from importlib import metadata
 from typing import Any
 
@@ -26,6 +26,7 @@ from hadim_cli.baselines.agents import (
 )
 from hadim_cli.baselines.evaluate import evaluate_policy
 from hadim_cli.errors import HadimError
+from hadim_cli.evaluation.metric import measure_name
 from hadim_cli.evaluation.runner import TaskResult
 from hadim_cli.evaluation.tasks import Task, load_task
 from hadim_cli.runs import TARGET_KEY, Progress, package_versions
@@ -82,6 +83,14 @@ class BaselineSession:
     def evaluate(self, task: Task) -> TaskResult:
         return evaluate_policy(self.agent, self.cfg, task)
 
+    def measures(self, task: Task) -> tuple[TaskResult, TaskResult]:
+        """The two measures of issue 46: the score within the task's budget, and the same
+        points within an episode's length (stored as `task@episode_length`), whose share of
+        points in the goal zone is the episode success."""
+        episode = dataclasses.replace(task, budget=self.cfg.episode_length,
+                                      name=measure_name(task.name, self.cfg.episode_length))
+        return self.evaluate(task), self.evaluate(episode)
+
 
 def versions() -> dict[str, str]:
     out = package_versions()
@@ -132,33 +141,45 @@ def check_total(total: int, multiple: int = CHUNK_MULTIPLE) -> None:
                          f"run, got {total}")
 
 
+def next_evaluation(it: int, eval_every: int, eval_at: Sequence[int]) -> int | None:
+    """The first iteration after `it` evaluated at: a multiple of `eval_every` (0: none) or
+    one of `eval_at`; None when there is none."""
+    later = [e for e in eval_at if e > it]
+    if eval_every:
+        later.append((it // eval_every + 1) * eval_every)
+    return min(later, default=None)
+
+
 def train(store: Store | None, run: str | None, session: BaselineSession, total: int, *,
           eval_every: int = 0, tasks: tuple[str, ...] = (),
           on_progress: Callable[[Progress], None] | None = None,
           should_stop: Callable[[], bool] | None = None,
           owner: str | None = None) -> dict[str, float]:
     """Run `session` to `total` iterations chunk by chunk, storing each (when a store is
-    given), evaluating every `eval_every` iterations; the same contract as `runs.train`."""
+    given), evaluating every `eval_every` iterations and at the config's `eval_at`, both
+    measures (`BaselineSession.measures`); the same contract as `runs.train`."""
     check_total(total, session.cfg.multiple)
     scores: dict[str, float] = {}
     loaded = [load_task(name) for name in tasks]
+    eval_at = session.cfg.eval_at if tasks else ()
     while session.iteration < total:
         it = session.iteration
         n = min(session.cfg.chunk, total - it)
-        if eval_every:
-            n = min(n, eval_every - it % eval_every)
+        due = next_evaluation(it, eval_every, eval_at)
+        if due is not None:
+            n = min(n, due - it)
         write = session.run_chunk(n)
         if store is not None and run is not None:
             write = dataclasses.replace(write, extra={**write.extra, TARGET_KEY: total})
             store.write_episode(run, write, owner=owner)
         it = session.iteration
-        if eval_every and it % eval_every == 0:
+        if it == due:
             for task in loaded:
-                result = session.evaluate(task)
-                scores[task.name] = result.score
-                if store is not None and run is not None:
-                    store.add_evaluation(run, it, task.name, result.score,
-                                         result.to_dict()["points"])
+                for result in session.measures(task):
+                    scores[result.task] = result.score
+                    if store is not None and run is not None:
+                        store.add_evaluation(run, it, result.task, result.score,
+                                             result.to_dict()["points"])
         if on_progress is not None:
             on_progress(Progress(it, total, None, dict(scores)))
         if should_stop and should_stop():

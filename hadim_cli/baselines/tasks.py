@@ -15,10 +15,11 @@ from dataclasses import dataclass
 import numpy as np
 
 from hadim_cli.errors import HadimError
+from hadim_cli.evaluation.metric import GOAL_ZONE
 from hadim_cli.evaluation.tasks import Task, load_task
 from hadim_cli.world.scene import ObjectSpec, Scene
 
-GOAL_RADIUS = 0.1
+GOAL_RADIUS = GOAL_ZONE
 """Radius of the goal zone (m): its diameter (0.2 m) exceeds one action's largest step
 (0.15 m), so driving straight through the zone cannot jump over it. The same for every
 algorithm."""

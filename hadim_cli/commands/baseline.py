@@ -90,3 +90,44 @@ def resume_baseline(st, record, iterations: int | None, eval_every: int | None,
     session = baseline_runs.restore(st, record)
     driver.drive(st, record.name, session, total, every, store_option,
                  baseline_runs.train, (cfg.task,))
+
+
+@app.command("diagnose")
+def diagnose(
+    run: Annotated[str, typer.Argument(help="A baseline run.")],
+    block: Annotated[int, typer.Option("--block", min=1, help="Iterations per row of the "
+                                       "training table.")] = 10_000,
+    store: StoreOption = None,
+    as_json: Annotated[bool, typer.Option("--json", help="Print JSON.")] = False,
+) -> None:
+    """Why a baseline does (not) learn: training episodes and returns, the goal zone reached
+    in training, exploration coverage, the scale of its values (docs/baselines.md)."""
+    import json
+
+    from hadim_cli import runs
+    from hadim_cli.baselines.diagnose import diagnose as measure
+
+    _threads()
+    with runs.open_store(store, create=False, writes=False) as st:
+        if st.get_run(run).config.get("kind") != "baseline":
+            raise HadimError(f"run {run} is a learner run: diagnose is for baseline runs")
+        found = measure(st, run, block)
+    if as_json:
+        typer.echo(json.dumps(found, indent=1))
+        return
+    typer.echo(f"{run} at {found['iterations']}: blocks of {block} iterations")
+    typer.echo("  start  episodes  reached  mean return  mean length  robot cells  goal-entity "
+               "cells")
+    for b in found["blocks"]:
+        typer.echo(f"{b['start']:>7} {b['episodes']:>9} {b['reached']:>8} "
+                   f"{b['mean_return']:>12.0f} {b['mean_length']:>12.0f} "
+                   f"{b['robot_coverage']:>11.0%} {b['goal_entity_coverage']:>12.0%}")
+    v = found["value_scale"]
+    if v is not None:
+        typer.echo(f"values on {v['states']} stored states: greedy mean {v['greedy_mean']:.3g} "
+                   f"(min {v['greedy_min']:.3g}, max {v['greedy_max']:.3g}); between the "
+                   f"actions {v['action_gap']:.3g}; the returns it got from them "
+                   f"{v['return_mean']:.3g}; possible {v['possible'][0]:.3g} … "
+                   f"{v['possible'][1]:.3g}")
+    if "table_states" in found:
+        typer.echo(f"table: {found['table_states']} states visited")

@@ -275,10 +275,14 @@ def eval_cmd(
     controller: Annotated[str | None, typer.Option(
         "--controller", help="Evaluate with this controller instead of the run's: rules or "
         "search (a diagnostic, not stored).")] = None,
+    budget: Annotated[int | None, typer.Option(
+        "--budget", help="Actions per point instead of the task's own (1-10000; stored as "
+        "TASK@N, e.g. push-object@1000: the episode-success measure of docs/baselines.md)."
+    )] = None,
     store: StoreOption = None,
     as_json: JsonOption = False,
 ) -> None:
-    """Evaluate a run's H on a task's target points and store the score."""
+    """Evaluate a run (learner or baseline) on a task's target points and store the score."""
     from hadim_cli import runs
     from hadim_cli.config import CONTROLLERS
     from hadim_cli.evaluation.tasks import load_task, load_task_file
@@ -288,7 +292,8 @@ def eval_cmd(
         raise HadimError("give exactly one of --task NAME or --points FILE")
     if controller is not None and controller not in CONTROLLERS:
         raise HadimError(f"--controller {controller}: unknown (known: {', '.join(CONTROLLERS)})")
-    chosen = load_task(task) if task is not None else load_task_file(points)
+    chosen = _with_budget(load_task(task) if task is not None else load_task_file(points),
+                          budget)
     with runs.open_store(store, create=False, run=run) as st:
         record = runs.chosen_run(st, run)
         run = record.name
@@ -316,6 +321,21 @@ def eval_cmd(
         render_eval(_console(), result, session.iteration)
         if animate is not None:
             typer.echo(f"wrote {animate}")
+
+
+def _with_budget(task, budget: int | None):
+    """`task` with another budget, named `TASK@N` so its scores never join the task's own."""
+    import dataclasses
+
+    from hadim_cli.evaluation.metric import check_budget, measure_name
+
+    if budget is None:
+        return task
+    try:
+        check_budget(budget)
+    except ValueError as exc:
+        raise HadimError(str(exc)) from None
+    return dataclasses.replace(task, budget=budget, name=measure_name(task.name, budget))
 
 
 def _eval_baseline(st, record, chosen, at: int | None):

@@ -14,7 +14,9 @@ app = typer.Typer()
 
 @app.command()
 def report(
-    sweep: Annotated[str, typer.Argument(help="The sweep to report on.")],
+    sweep: Annotated[list[str], typer.Argument(help="The sweep(s) to report on, together "
+                                               "(e.g. rl-grid-paper rl-grid-fixed "
+                                               "rl-grid-learner).")],
     out: Annotated[Path, typer.Option("--out", "-o", help="Folder to write into.")],
     at: Annotated[list[int] | None, typer.Option(
         "--at", min=0, help="An iteration of the score table (repeatable; default: up to 5 "

@@ -12,7 +12,13 @@ import numpy as np
 
 from hadim_cli.config import WorldConfig
 from hadim_cli.errors import HadimError
-from hadim_cli.evaluation.metric import heading_error, point_error, remaining_share, task_score
+from hadim_cli.evaluation.metric import (
+    heading_error,
+    point_error,
+    remaining_share,
+    task_score,
+    zone_count,
+)
 from hadim_cli.evaluation.tasks import Task, check_task
 from hadim_cli.learner.affordance import Affordance
 from hadim_cli.learner.controller import Controller, Decision
@@ -116,9 +122,19 @@ class TaskResult:
     points: tuple[PointResult, ...]
     recordings: tuple[Recording, ...] = ()
     """Each point's attempt, when `evaluate(..., record=True)`."""
+    budget: int | None = None
+    """Actions allowed per point (the task's budget, or `--budget`)."""
+
+    @property
+    def in_zone(self) -> int:
+        """Points whose entity ended inside the goal zone (`metric.GOAL_ZONE`), no contact."""
+        return zone_count([asdict(p) for p in self.points])
 
     def to_dict(self) -> dict:
-        return {"task": self.task, "score": self.score, "points": [asdict(p) for p in self.points]}
+        return {"task": self.task, "score": self.score, "budget": self.budget,
+                "in_zone": self.in_zone, "points_total": len(self.points),
+                "actions": sum(p.actions for p in self.points),
+                "points": [asdict(p) for p in self.points]}
 
 
 MOVED = 1e-3
@@ -342,4 +358,4 @@ def evaluate(learner: Learner, world_config: WorldConfig, task: Task,
                                         np.stack(actuator.observations), tuple(actuator.steps),
                                         entity, target, tool, actuator.touched))
     return TaskResult(task.name, task_score([r.error for r in results]), tuple(results),
-                      tuple(recordings))
+                      tuple(recordings), task.budget)

@@ -29,8 +29,9 @@ def group_label(config: Mapping[str, Any], sweep_label: str) -> str:
     if config.get("kind") == "baseline":
         b = config["baseline"]
         actions = "" if b.get("actions", "discrete") == "discrete" else f", {b['actions']}"
-        return f"{b['algorithm']} ({b['reward']}{actions})"
-    return f"hadim ({sweep_label})"
+        variant = "" if b.get("variant", "paper") == "paper" else f", {b['variant']}"
+        return f"{b['algorithm']} ({b['reward']}{actions}{variant})"
+    return sweep_label if sweep_label.startswith("hadim") else f"hadim ({sweep_label})"
 
 
 def paper_claim(label: str, task: str) -> str:

@@ -3,12 +3,13 @@
 from __future__ import annotations
 
 import json
+from collections.abc import Sequence
 from pathlib import Path
 
 from hadim_cli.baselines.tasks import GOAL_RADIUS
 from hadim_cli.errors import HadimError
 from hadim_cli.plots import timeline_figure
-from hadim_cli.report import baselines, tables
+from hadim_cli.report import baselines, measures, tables
 from hadim_cli.report import summary as summaries
 
 REFERENCE = "default"
@@ -27,13 +28,17 @@ def report_iterations(summary: dict, wanted: list[int] | None) -> list[int]:
     return sorted(picks)
 
 
-def write_report(store, sweep: str, out: Path, at: list[int] | None = None) -> list[Path]:
+def write_report(store, sweep: str | Sequence[str], out: Path,
+                 at: list[int] | None = None) -> list[Path]:
     """summary.json, tables.md, competence.png (if the learner's runs were evaluated),
-    timelines/RUN.png of every learner run, and with baseline runs fig5.png (paper Fig. 5)
-    into `out`; returns the files written."""
+    timelines/RUN.png of every learner run, and with baseline runs fig5.png (paper Fig. 5:
+    with both measures when the runs have them, `report.measures`) into `out`, from one
+    sweep or several together; returns the files written."""
     from hadim_cli.plots import comparison_figure
 
-    groups = summaries.sweep_groups(store, sweep)
+    sweeps = [sweep] if isinstance(sweep, str) else list(sweep)
+    groups = merged_groups(store, sweeps)
+    sweep = " + ".join(sweeps)
     configs = {label: store.get_run(names[0]).config for label, names in groups.items()}
     learner = {label: names for label, names in groups.items()
                if not summaries.is_baseline(configs[label])}
@@ -55,9 +60,14 @@ def write_report(store, sweep: str, out: Path, at: list[int] | None = None) -> l
         summary["comparison"] = baselines.comparison_summary(fig5, GOAL_RADIUS)
         parts += ["## Reinforcement-learning comparison (paper §5.3, Fig. 5)",
                   baselines.comparison_table(fig5, GOAL_RADIUS)]
-        if any(evs for runs in fig5.values() for evs in runs):
+        both = measures.group_curves(store, _fig5_names(configs, groups))
+        if both:
+            summary["claims"] = measures.claims_summary(both)
+            parts += ["## The paper's claims, both measures (score / episode success)",
+                      measures.claims_table(both)]
+        if both or any(evs for runs in fig5.values() for evs in runs):
             written.append(out / "fig5.png")
-            comparison_figure(fig5, written[-1], tables.TASKS, log_x=True)
+            _fig5(both, fig5, written[-1])
     for names in learner.values():
         for name in names:
             path = out / "timelines" / f"{name}.png"
@@ -72,6 +82,42 @@ def write_report(store, sweep: str, out: Path, at: list[int] | None = None) -> l
                   tables.counts_line(counts)]
     written[1].write_text("\n\n".join(parts) + "\n")
     return written
+
+
+def merged_groups(store, sweeps: Sequence[str]) -> dict[str, list[str]]:
+    """The groups of several sweeps together; a sweep with no runs yet is left out when
+    others have some."""
+    groups: dict[str, list[str]] = {}
+    for name in sweeps:
+        try:
+            found = summaries.sweep_groups(store, name)
+        except HadimError:
+            if len(sweeps) == 1 or store.sweep_settings(name) is None:
+                raise
+            continue
+        for label, names in found.items():
+            groups.setdefault(label, []).extend(names)
+    if not groups:
+        raise HadimError(f"the sweeps {', '.join(sweeps)} have no runs yet: run them first")
+    return groups
+
+
+def _fig5(both: dict, fig5: dict, out: Path) -> None:
+    """Both measures when the runs have them, else the budgeted scores."""
+    from hadim_cli.plots import comparison_figure
+
+    if both:
+        measures.measures_figure(both, out)
+    else:
+        comparison_figure(fig5, out, tables.TASKS, log_x=True)
+
+
+def _fig5_names(configs: dict[str, dict], groups: dict[str, list[str]]) -> dict[str, list]:
+    """The sweep's run names by the paper's legend (as `_fig5_groups`)."""
+    out: dict[str, list] = {}
+    for label, names in groups.items():
+        out.setdefault(baselines.group_label(configs[label], label), []).extend(names)
+    return out
 
 
 def _fig5_groups(configs: dict[str, dict], evaluations: dict[str, list]) -> dict[str, list]:

@@ -69,7 +69,8 @@ def test_run_stores_resumes_exactly_and_evaluates(tmp_path, algo):
     with Store.open(store, create=False) as st:
         assert st.dataset_sha256("run-1") == st.dataset_sha256("run-2")
         scores = [(e.iteration, e.task) for e in st.evaluations("run-2")]
-        assert scores == [(60, "push-object"), (120, "push-object")]
+        assert scores == [(60, "push-object"), (60, "push-object@30"), (120, "push-object"),
+                          (120, "push-object@30")]  # both measures (issue 46)
         assert st.dataset("run-1").contexts.shape == (120, 8)
     out = ok("eval", "run-2", "--task", "push-object", "--store", store, "--json").stdout
     assert '"score"' in out and '"iteration": 120' in out
@@ -126,7 +127,7 @@ def test_evaluating_never_changes_training(tmp_path):
             session = _session("dqn", task="push-with-tool", eval_every=40)
             baseline_runs.new_run(st, session.cfg, 3, name)
             baseline_runs.train(st, name, session, 120, eval_every=40, tasks=tasks)
-        assert len(st.evaluations("evaluated")) == 3
+        assert len(st.evaluations("evaluated")) == 3 * 2  # both measures
         assert_same_state(st.checkpoint("quiet"), st.checkpoint("evaluated"))
 
 

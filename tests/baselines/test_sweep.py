@@ -119,7 +119,8 @@ def test_sweep_runs_the_grid_like_one_by_one_and_reports_it(tmp_path):
         run = "rl-q-learning-guided-move-robot-s0"
         assert st.dataset_sha256(run) == st.dataset_sha256("ref")
         assert st.dataset_sha256(run) != st.dataset_sha256("rl-q-learning-sparse-move-robot-s0")
-        assert [e.iteration for e in st.evaluations(run)] == [100, 200, 300]
+        assert [(e.iteration, e.task) for e in st.evaluations(run)] == [
+            (it, task) for it in (100, 200, 300) for task in ("move-robot", "move-robot@1000")]
     out = tmp_path / "report"
     report = runner.invoke(app, ["report", "rl", "--out", str(out), "--store", str(store)])
     assert report.exit_code == 0, (report.output, report.exception)
@@ -132,3 +133,6 @@ def test_sweep_runs_the_grid_like_one_by_one_and_reports_it(tmp_path):
     assert (summary["comparison"]["q-learning (guided)"]["move-robot"]["iterations"]
             == [100, 200, 300])
     assert summary["runs"][run]["baseline"]["reward"] == "guided"
+    assert "both measures (score / episode success)" in tables  # issue 46
+    assert summary["claims"]["move-robot"]["q-learning (guided)"][0]["iterations"] == [100, 200,
+                                                                                    300]

@@ -1,5 +1,5 @@
 """Each step of Algorithms 1 and 2 on hand-built data: a one-line bug in any of them fails a
-test here (the bug → test table is in docs/testing.md).
+test here (docs/testing.md lists the behaviours and the mutation run that measures them).
 
 The data (`handmade.Room`): a differential drive whose displacement is a function of the
 action *and the heading*; or, with a fixed heading, of the action alone; or noise.
@@ -652,3 +652,82 @@ def test_a_blocked_push_in_an_episode_where_nothing_moved_still_teaches_p_a(monk
     room_push(room, "obj2", 0.0, moves=False, blocked=True)
     room.adaptation.run(start, len(room.dataset), len(room.dataset), 0, rng)
     assert [y.tolist() for y in taught] == [[False, False]]  # the red object, the robot
+
+
+def test_creation_keeps_the_best_of_the_qualifying_inputs():
+    """Every candidate input that clears τ_creation is tried and the one of highest
+    competence is created: with τ_creation at 0 both the wheel commands and the (controllable)
+    heading qualify for the robot's position, and the wheels, which drive it, win."""
+    room = Room(tau_creation=0.0)
+    rng = np.random.default_rng(0)
+    room.episode()
+    room.affordance(room.moves(rng, 200), out=ROBOT_HEADING)
+    t = room.moves(rng, 200)
+    by_input = {inp: room.fitter.trial(inp, ROBOT_POSITION, (ROBOT_HEADING,) if inp is ACTION
+                                       else (), room.rows(t), np.random.default_rng(1))
+                for inp in (ACTION, ROBOT_HEADING)}
+    assert by_input[ACTION] > by_input[ROBOT_HEADING] + 0.2  # the premise
+    assert room.hierarchy.candidate_inputs(ROBOT_POSITION) == [ACTION, ROBOT_HEADING]
+    events = room.adaptation.run(int(t[0]), int(t[-1]) + 1, len(room.dataset), 0, rng)
+    created = [(e.input, e.output) for e in events if e.kind is EventKind.CREATED]
+    assert created == [("action", "robot.position")]
+
+
+class RecordingActuator(FakeActuator):
+    """Keeps every primitive action it is given."""
+
+    def __init__(self, obs: np.ndarray):
+        super().__init__(obs)
+        self.given: list[np.ndarray] = []
+
+    def act(self, action: np.ndarray) -> np.ndarray:
+        self.given.append(np.array(action, dtype=float))
+        return super().act(action)
+
+
+def test_random_babbling_draws_sequences_of_actions_uniform_in_the_action_box():
+    """Random babbling in the primitive space: `random_sequence_length` actions per learning
+    episode, each uniform in [-1, 1]² (mean 0, variance 1/3, every quadrant a quarter, the
+    two wheels independent)."""
+    room = Room(random_sequence_length=5)
+    rng = np.random.default_rng(0)
+    actuator = RecordingActuator(room.obs.copy())
+    episodes = [room.learner.learning_episode(actuator, rng) for _ in range(400)]
+    assert {e.mode for e in episodes} == {Mode.RANDOM_ACTION}
+    a = np.stack(actuator.given)
+    assert a.shape == (5 * 400, 2)
+    assert np.all(np.abs(a) <= 1.0) and np.all(a.min(axis=0) < -0.98) \
+        and np.all(a.max(axis=0) > 0.98)
+    np.testing.assert_allclose(a.mean(axis=0), 0.0, atol=0.05)
+    np.testing.assert_allclose(a.var(axis=0), 1 / 3, atol=0.03)
+    quadrants = np.bincount(2 * (a[:, 0] > 0) + (a[:, 1] > 0), minlength=4) / len(a)
+    np.testing.assert_allclose(quadrants, 0.25, atol=0.03)
+    assert abs(np.corrcoef(a.T)[0, 1]) < 0.06
+    assert room.learner.learning_episodes == 400
+
+
+def test_random_babbling_draws_a_controllable_space_uniformly_and_a_goal_uniform_in_it(
+        monkeypatch):
+    """With H not empty, random babbling picks the primitive space or a controllable space
+    with equal odds, and in a controllable space a goal uniform over the space's bounds
+    (no salient goals here), handed to the planner with the affordance that controls it."""
+    room = Room(sigma=0.0, salient_goals=0.0, random_sequence_length=1)
+    rng = np.random.default_rng(0)
+    aff = room.affordance(room.moves(rng, 100), (ROBOT_HEADING,))
+    tried = _planner_that_tries(room, monkeypatch)
+    actuator = RecordingActuator(room.obs.copy())
+    episodes = [room.learner.learning_episode(actuator, rng) for _ in range(600)]
+    modes = [e.mode for e in episodes]
+    assert abs(modes.count(Mode.RANDOM_CONTROLLABLE) / len(modes) - 0.5) < 0.06
+    assert len(actuator.given) == modes.count(Mode.RANDOM_ACTION)
+    assert {aid for aid, _ in tried} == {aff.id}
+    goals = np.stack([g for _, g in tried])
+    low, high = room.layout.space("robot", Property.POSITION).low, \
+        room.layout.space("robot", Property.POSITION).high
+    assert np.all(goals >= low) and np.all(goals <= high)
+    span = np.asarray(high) - np.asarray(low)
+    np.testing.assert_allclose(goals.mean(axis=0), (np.asarray(low) + high) / 2,
+                               atol=0.08 * span.max())
+    np.testing.assert_allclose(goals.std(axis=0), span / np.sqrt(12), rtol=0.12)
+    assert all(e.goal == tuple(g) for e, g in zip(
+        [e for e in episodes if e.mode is Mode.RANDOM_CONTROLLABLE], goals, strict=True))

@@ -149,6 +149,7 @@ print(h.hexdigest())
 """
 
 
+@pytest.mark.scenario
 def test_same_seed_same_weights_across_processes() -> None:
     s = trained(8).state()
     h = hashlib.sha256()

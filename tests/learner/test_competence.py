@@ -11,6 +11,7 @@ from hadim_cli.learner.competence import (
     held_out_errors,
     model_competence,
     normalised_errors,
+    range_scale,
     split_zero,
 )
 from hadim_cli.learner.interest import learning_progress
@@ -112,6 +113,11 @@ def test_subset_evaluation_is_deterministic_and_balanced() -> None:
     rows = evaluation_rows(zero, 6, None)
     assert rows.size == 6 and zero[rows].sum() == 2  # the small group gives its share away
     np.testing.assert_array_equal(evaluation_rows(zero, None, None), np.arange(10))
+    # As many rows as allowed: all of them, and nothing drawn from the learner's generator.
+    gen = np.random.default_rng(5)
+    before = gen.bit_generator.state
+    np.testing.assert_array_equal(evaluation_rows(zero, 10, gen), np.arange(10))
+    assert gen.bit_generator.state == before
 
 
 def test_learning_progress() -> None:
@@ -140,3 +146,24 @@ def test_held_out_errors_leave_each_row_out_of_its_own_fit() -> None:
     assert e["max"] == pytest.approx(1.0, abs=0.05)
     assert e["p50"] < 0.05
     assert held_out_errors(LocalLinearModel(1, 1)) is None
+    one = LocalLinearModel(1, 1)
+    one.add(np.array([[0.0]]), None, np.array([[1.0]]))
+    assert held_out_errors(one) is None
+    two = LocalLinearModel(1, 1)  # from two rows on: each predicted from the other
+    two.add(np.array([[0.0], [1.0]]), None, np.array([[1.0], [3.0]]))
+    assert held_out_errors(two) == pytest.approx({"p50": 2.0, "p90": 2.0, "p99": 2.0,
+                                                  "max": 2.0})
+
+
+def test_the_range_of_a_space_is_twice_a_high_quantile_of_its_moves():
+    """`range_scale`, the length competence divides errors by: the width of the space's
+    range, i.e. twice the 95th percentile of the norms of the outcomes that moved (a move in
+    any direction spans the diameter); the rows where nothing moved do not count."""
+    norms = np.arange(1, 101, dtype=np.float64) / 100   # 0.01 … 1.00
+    angles = np.linspace(0, 2 * np.pi, norms.size, endpoint=False)
+    y = np.c_[norms * np.cos(angles), norms * np.sin(angles)]
+    y = np.concatenate([y, np.zeros((300, 2))])          # many rows where nothing moved
+    assert range_scale(y, EPS) == pytest.approx(2 * np.quantile(norms, 0.95))
+    assert range_scale(y, EPS, quantile=0.5) == pytest.approx(2 * np.median(norms))
+    assert range_scale(y, 0.5) == pytest.approx(2 * np.quantile(norms[norms > 0.5], 0.95))
+    assert range_scale(np.zeros((5, 2)), EPS) == 1.0    # nothing moved: unit scale

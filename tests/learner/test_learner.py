@@ -24,6 +24,7 @@ def trained() -> Session:
     return session
 
 
+@pytest.mark.scenario
 def test_a_context_review_keeps_the_heading_of_the_robot_s_motion(trained):
     """Seed 0's robot motion lost its heading context at iteration 268 (back at ~1150) while
     its rows mixed free moves with the robot pressed against walls and objects: its
@@ -34,6 +35,7 @@ def test_a_context_review_keeps_the_heading_of_the_robot_s_motion(trained):
     assert ROBOT_HEADING in movers[0].contexts
 
 
+@pytest.mark.scenario
 def test_short_session_discovers_moving_itself(trained):
     movers = [a for a in trained.learner.hierarchy.with_output(ROBOT_POSITION)
               if a.input is ACTION]
@@ -46,12 +48,14 @@ def test_short_session_discovers_moving_itself(trained):
     assert movers[0].competence > 0.5
 
 
+@pytest.mark.scenario
 def test_short_session_moves_the_robot_to_targets(trained):
     result = evaluate(trained.learner, trained.config.world, load_task("move-robot"))
     assert result.score > 0.5
     assert all(p.actions <= load_task("move-robot").budget for p in result.points)
 
 
+@pytest.mark.scenario
 def test_evaluation_changes_nothing_of_the_learner(trained):
     before_json, before_arrays = learner_state(trained.learner)
     rng_before = trained.learner_rng.bit_generator.state
@@ -66,6 +70,7 @@ def test_evaluation_changes_nothing_of_the_learner(trained):
         assert np.array_equal(value, after_arrays[key]), key
 
 
+@pytest.mark.scenario
 def test_same_seed_same_history_other_seed_other():
     def run(seed: int) -> tuple[str, list]:
         session = Session(load_config(), seed=seed)
@@ -77,6 +82,7 @@ def test_same_seed_same_history_other_seed_other():
     assert a[0] != c[0]
 
 
+@pytest.mark.scenario
 def test_candidate_inputs_never_close_a_cycle(trained):
     h: Hierarchy = trained.learner.hierarchy
     for output in (ROBOT_POSITION, ROBOT_HEADING):
@@ -85,6 +91,7 @@ def test_candidate_inputs_never_close_a_cycle(trained):
             assert (inp, output) not in {(a.input, a.output) for a in h}
 
 
+@pytest.mark.scenario
 def test_evaluating_during_training_leaves_training_unchanged():
     """Evaluating after every episode gives the same D and the same H as never evaluating.
 

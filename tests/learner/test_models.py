@@ -275,3 +275,46 @@ def test_robust_iterations_survive_a_state_round_trip_and_old_states_are_plain()
     old = model.state()
     old["k"] = old["k"][:3]  # a state saved before robust fits existed
     assert LocalLinearModel.from_state(old).robust_iterations == 0
+
+
+@pytest.mark.parametrize("context", [True, False])
+def test_one_inverse_step_from_the_stored_rows_lands_on_a_linear_maps_goal(context: bool) -> None:
+    """Without refinement (`refine_steps=0`) the inverse model's answer is the best of its
+    candidates: the stored inputs and one damped Newton step from each towards the goal. On a
+    linear map that step lands on the goal, far closer than any stored row's outcome; a step
+    in the wrong direction (or none) leaves only the stored inputs, a grid's spacing away."""
+    grid = np.linspace(-1, 1, 6)   # stored inputs 0.4 apart
+    x = np.array([(a, b) for a in grid for b in grid])
+    c = np.tile([[2.0, 1.0]], (x.shape[0], 1)) if context else None
+    y = x @ A.T + (c @ B.T if context else 0.0)
+    model = LocalLinearModel(2, 2, [2] if context else [], refine_steps=0, damping=1e-6)
+    model.add(x, c, y)
+    for x_true in ([0.2, -0.4], [-0.6, 0.6], [0.0, 0.0]):
+        goal = A @ np.array(x_true) + (B @ [2.0, 1.0] if context else 0.0)
+        res = model.infer(goal, c[0] if context else None)
+        np.testing.assert_allclose(res.x, x_true, atol=1e-3)
+        assert res.error < 1e-3
+        np.testing.assert_allclose(res.y_predicted, goal, atol=1e-3)
+
+
+def test_refinement_steps_bring_a_curved_maps_answer_closer_to_the_goal() -> None:
+    """On a curved map one Newton step from a stored row falls short; each refinement step
+    (`refine_steps`) goes on from the best candidate towards the goal and is kept only when
+    the forward model predicts it closer: more steps never answer worse, here better."""
+    rng = np.random.default_rng(4)
+    x = rng.uniform(-1, 1, (400, 2))
+
+    def curve(v: np.ndarray) -> np.ndarray:
+        return np.c_[np.sin(2 * v[:, 0]) + v[:, 1] ** 3, v[:, 0] * v[:, 1] + v[:, 1]]
+
+    goals = curve(rng.uniform(-0.7, 0.7, (15, 2)))
+    predicted = []
+    for steps in (0, 1, 3):
+        model = LocalLinearModel(2, 2, [], refine_steps=steps, k_inverse=5,
+                                 x_low=[-1, -1], x_high=[1, 1])
+        model.add(x, None, curve(x))
+        answers = [model.infer(g) for g in goals]
+        predicted.append(np.array([a.error for a in answers]))
+    assert np.all(predicted[1] <= predicted[0]) and np.all(predicted[2] <= predicted[1])
+    assert predicted[1].mean() < 0.5 * predicted[0].mean()
+    assert predicted[2].mean() < predicted[1].mean()

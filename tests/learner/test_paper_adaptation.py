@@ -121,6 +121,7 @@ def test_a_match_with_another_output_stands_for_creation(paper, jitter, created,
     assert (TARGET_POSITION in tried) == created
 
 
+@pytest.mark.scenario
 @pytest.mark.parametrize(("picks", "matching"), [(True, False), (False, True)])
 def test_the_options_reach_the_learner_from_the_command_line_and_are_stored(tmp_path, picks,
                                                                             matching):
@@ -245,6 +246,7 @@ def test_with_adds_every_matching_affordance_takes_the_data_in():
     assert drive.rows.lent().sum() > 0 and plain.rows.lent().sum() > 0
 
 
+@pytest.mark.scenario
 def test_the_paper_literal_config_turns_every_paper_switch_on_and_trains(tmp_path):
     """`configs/paper-literal.toml`: every switch that gives the paper's own rule is on (a
     switch added later and forgotten there fails this), and a short run trains with it,

@@ -126,6 +126,7 @@ def test_every_learning_episode_updates_the_paper_maps_before_adaptation(paper, 
         assert _recorded(aff)[1].tolist() == [0.5] * len(goals)
 
 
+@pytest.mark.scenario
 def test_the_option_reaches_the_learner_from_the_command_line_and_is_stored(tmp_path):
     """`hadim train --set learner.paper_interest=true`: the run's stored config holds it and
     the session restored from its checkpoint has paper maps that recorded outcomes."""

@@ -39,6 +39,7 @@ def test_same_seed_same_actions_bit_identical_in_process() -> None:
     assert not np.array_equal(run_episode(world, 6), first)
 
 
+@pytest.mark.scenario
 def test_same_seed_same_actions_bit_identical_across_processes() -> None:
     digests = {subprocess.run([sys.executable, "-c", _SCRIPT], check=True, capture_output=True,
                               text=True).stdout.strip() for _ in range(2)}

@@ -150,3 +150,27 @@ def test_a_pushed_object_is_at_rest_when_the_action_is_observed() -> None:
     x = position(world, "obj1")[0]
     world.step((-1.0, 1.0))  # a turn on the spot: nothing pushes the object now
     assert position(world, "obj1")[0] == pytest.approx(x, abs=1e-6)
+
+
+def test_ground_friction_of_a_green_object_is_coulombs_with_the_torque_of_a_disc():
+    """The ground holds a green object back with at most μ·m·g, and its turning with at most
+    (2/3)·μ·m·g·r (a disc pressing evenly on the ground); a red object is held by nothing, it
+    is static."""
+    import pymunk
+
+    from hadim_cli.world.physics import GRAVITY, build_physics
+    from hadim_cli.world.placement import object_mass
+    from hadim_cli.world.scene import Scene
+
+    cfg = WorldConfig()
+    small, big = green(1.0, 0.0, radius=0.08, height=0.1), green(-1.0, 0.0, radius=0.25,
+                                                                   height=0.6)
+    physics = build_physics(cfg, Scene((small, red(0.0, 1.0), big)))
+    assert len(physics.movable) == 2
+    for spec, body in zip((small, big), physics.movable, strict=True):
+        force = cfg.ground_friction * object_mass(cfg, spec.radius, spec.height) * GRAVITY
+        held = {type(c): c for c in physics.space.constraints
+                if body in (c.a, c.b) and physics.space.static_body in (c.a, c.b)}
+        assert held[pymunk.PivotJoint].max_force == pytest.approx(force)
+        assert held[pymunk.GearJoint].max_force == pytest.approx(force * spec.radius * 2 / 3)
+        assert held[pymunk.PivotJoint].max_bias == held[pymunk.GearJoint].max_bias == 0.0

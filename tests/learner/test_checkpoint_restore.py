@@ -1,0 +1,91 @@
+"""The checkpoint/restore path of a stored run (`runs.episode_write` → the store →
+`runs.restore_session`): a run restored at a checkpoint is the session that wrote it — its D,
+H with every model, map and p_A, its counters and both random generators — and goes on as
+it would have. The store's own tests guard its formats; the fixture replay test guards old
+stores; these tests name what a restore must bring back."""
+
+from __future__ import annotations
+
+from dataclasses import replace
+
+import numpy as np
+import pytest
+from test_state_round_trip import CACHES, assert_same
+
+from hadim_cli import runs
+from hadim_cli.config import with_overrides
+from hadim_cli.session import Session
+from hadim_store.api import Store
+
+SEED = 3
+EPISODE = 25
+
+
+@pytest.fixture(scope="module")
+def stored(tmp_path_factory, one_thread):
+    """A run trained for 4 short episodes, a checkpoint after each; its session kept."""
+    from hadim_cli.config import load_config
+
+    config = with_overrides(load_config(),
+                            [f"world.episode_length={EPISODE}", "evaluation.every=200"])
+    store = Store.open(tmp_path_factory.mktemp("run") / "s.sqlite", create=True)
+    run = runs.new_run(store, config, SEED, None)
+    session = Session(config, SEED)
+    runs.train(store, run.name, session, 4 * EPISODE)
+    assert len(session.learner.hierarchy) > 0  # something in H to restore
+    yield store, run, session
+    store.close()
+
+
+def test_a_restored_run_is_the_session_that_wrote_its_last_checkpoint(stored):
+    store, run, session = stored
+    back = runs.restore_session(store, store.get_run(run.name))
+    assert back.iteration == session.iteration == 4 * EPISODE
+    assert back.episodes_done == session.episodes_done == 4
+    assert back.world_rng.bit_generator.state == session.world_rng.bit_generator.state
+    assert back.learner_rng.bit_generator.state == session.learner_rng.bit_generator.state
+    assert assert_same(session.learner, back.learner, ignore=CACHES) > 500
+
+
+def test_a_run_restored_at_an_earlier_checkpoint_replays_the_same_episodes(stored):
+    """Restored after its second episode, the run trains its third and fourth episodes
+    again, action for action, and ends where the original ended."""
+    store, run, session = stored
+    back = runs.restore_session(store, store.get_run(run.name), at=2 * EPISODE + 5)
+    assert back.iteration == 2 * EPISODE and back.episodes_done == 2
+    assert len(back.learner.dataset.episodes()) == 2
+    runs.train(None, None, back, 4 * EPISODE)
+    d, e = session.learner.dataset, back.learner.dataset
+    assert np.array_equal(d.actions, e.actions) and np.array_equal(d.outcomes, e.outcomes)
+    assert back.learner.learning_episodes == session.learner.learning_episodes
+    assert [a.id for a in back.learner.hierarchy] == [a.id for a in session.learner.hierarchy]
+    assert [a.competence for a in back.learner.hierarchy] == \
+        [a.competence for a in session.learner.hierarchy]
+
+
+def test_a_fork_with_another_seed_draws_from_new_generators_of_that_seed_and_iteration(stored):
+    store, run, session = stored
+    other = replace(store.get_run(run.name), seed=SEED + 1)
+    back = runs.restore_session(store, other, at=2 * EPISODE)
+    world, learner = np.random.default_rng([SEED + 1, 2 * EPISODE]).spawn(2)
+    assert back.world_rng.bit_generator.state == world.bit_generator.state
+    assert back.learner_rng.bit_generator.state == learner.bit_generator.state
+    same = runs.restore_session(store, store.get_run(run.name), at=2 * EPISODE)
+    assert same.world_rng.bit_generator.state != world.bit_generator.state
+    # The data and H are the checkpoint's either way.
+    assert_same(same.learner, back.learner, ignore=CACHES)
+
+
+def test_a_run_without_a_checkpoint_starts_afresh_and_an_early_one_is_refused(tmp_path):
+    from hadim_cli.config import load_config
+    from hadim_cli.errors import HadimError
+
+    config = load_config()
+    with Store.open(tmp_path / "s.sqlite", create=True) as store:
+        run = runs.new_run(store, config, SEED, "empty")
+        fresh = runs.restore_session(store, run)
+        assert fresh.iteration == 0 and fresh.episodes_done == 0
+        root = np.random.default_rng(SEED).spawn(2)
+        assert fresh.world_rng.bit_generator.state == root[0].bit_generator.state
+        with pytest.raises(HadimError, match="no checkpoint at or before iteration 5"):
+            runs.restore_session(store, run, at=5)
