@@ -726,8 +726,6 @@ class ControllerConfig:
     actions to go from where it is predicted to end)."""
     beam: int = 8
     """Imagined states kept at each depth of the search."""
-    stall: int = 8
-    """Actions a pursuit may go without a new low of its estimated actions to go."""
     clearance: float = 0.02
     """Gap (m) kept from a body no level of the chain moves (and the overlap allowed between
     bodies a level moves, for the models' error)."""
@@ -742,7 +740,7 @@ class ControllerConfig:
     def validate(self) -> None:
         _check(self.kind in CONTROLLERS, "controller.kind",
                f"must be one of {', '.join(CONTROLLERS)}", self.kind)
-        for name in ("commands", "horizon", "beam", "stall"):
+        for name in ("commands", "horizon", "beam"):
             _check(getattr(self, name) >= 1, f"controller.{name}", "must be >= 1",
                    getattr(self, name))
         _check(self.commands >= 2, "controller.commands", "must be >= 2", self.commands)
@@ -918,9 +916,20 @@ without them did (its defaults then): a stored run restores the learner it train
 planner's constants are code, and follow the installed version)."""
 
 
+CODE_SECTIONS = ("planner", "controller")
+"""Sections whose keys are constants of the installed code, not of the run: a stored run's
+keys that the installed version no longer has are dropped (a run's D, H and models are data;
+how goals are turned into actions is code)."""
+
+
 def stored_config(values: Mapping[str, Any]) -> Config:
-    """The Config of a stored run: `values`, with `LEGACY_DEFAULTS` for keys it lacks."""
+    """The Config of a stored run: `values`, with `LEGACY_DEFAULTS` for keys it lacks and
+    without the keys of `CODE_SECTIONS` the installed version does not know."""
     filled = dict(values)
+    for section in CODE_SECTIONS:
+        if isinstance(filled.get(section), Mapping):
+            known = {f.name for f in dataclasses.fields(typing.get_type_hints(Config)[section])}
+            filled[section] = {k: v for k, v in filled[section].items() if k in known}
     for section, legacy in LEGACY_DEFAULTS.items():
         table = dict(filled.get(section, {}))
         for key, value in legacy.items():

@@ -66,10 +66,16 @@ class Pursuit:
     goal: np.ndarray
     start: float
     """The output's distance to the goal when the pursuit began."""
-    best: float = np.inf
-    """The least estimated actions to go seen so far."""
-    since_best: int = 0
-    """Actions taken since then."""
+    budget: float = np.inf
+    """Actions it may take (given up once its estimate of actions to go exceeds those left)."""
+    used: int = 0
+    """Actions taken so far."""
+    seen: list[np.ndarray] = field(default_factory=list)
+    """The states acted from (bodies' positions in steps, heading in turns: `_key`)."""
+    raised: list[float] = field(default_factory=list)
+    """Per state of `seen`, what the search learned its estimate falls short by: the
+    least estimate of its successors plus the action, less its own (learning real-time
+    search, Korf 1990)."""
 
 
 @dataclass(frozen=True)
@@ -192,17 +198,18 @@ class Controller:
 
     # ------------------------------------------------------------------ public contract
     def pursue(self, aff: Affordance, binding: Binding, goal: np.ndarray,
-               obs: np.ndarray) -> Pursuit:
-        """A new pursuit of `goal` (an absolute value of `aff`'s output) from `obs`."""
+               obs: np.ndarray, budget: float = np.inf) -> Pursuit:
+        """A new pursuit of `goal` (an absolute value of `aff`'s output) from `obs`, in at
+        most `budget` actions."""
         goal = np.asarray(goal, dtype=float)
         if aff.output.prop is Property.HEADING:
             goal = goal / max(float(np.linalg.norm(goal)), 1e-9)
         start = float(np.linalg.norm(goal - self._value(aff.output, obs, binding)))
-        return Pursuit(aff, binding, goal, start)
+        return Pursuit(aff, binding, goal, start, budget)
 
     def act(self, obs: np.ndarray, pursuit: Pursuit) -> np.ndarray | None:
         """The next primitive action towards the pursuit's goal; None when the goal is
-        reached, the chain cannot act, or the pursuit stalled."""
+        reached, the chain cannot act, or its estimated actions to go exceed those left."""
         aff, b = pursuit.affordance, pursuit.binding
         dist = float(np.linalg.norm(pursuit.goal - self._value(aff.output, obs, b)))
         if dist <= max(self.config.reach_tolerance * pursuit.start, self.config.zero_eps):
@@ -211,15 +218,19 @@ class Controller:
         if plan is None:
             return None
         now, gaps, label = self._to_go(obs[None], plan, trace=True)
-        if now[0] < pursuit.best - 1e-6:
-            pursuit.best, pursuit.since_best = float(now[0]), 0
-        elif pursuit.since_best >= self.pc.stall:
-            return None
-        pursuit.since_best += 1
-        chosen = self._search(obs, plan, float(now[0]))
+        here = float(now[0]) + float(self._raised(obs[None], plan, pursuit)[0])
+        if here > pursuit.budget - pursuit.used:
+            return None  # not expected within the actions left
+        chosen = self._search(obs, plan, pursuit)
         if chosen is None:
             return None
         action, predicted = chosen
+        # What the estimate here fell short by is learned, so that a state the search keeps
+        # coming back to looks as far as it proved to be.
+        if predicted > here + 1e-9:
+            pursuit.seen.append(self._key(obs[None], plan)[0])
+            pursuit.raised.append(predicted - float(now[0]))
+        pursuit.used += 1
         if self.observer is not None:
             self.observer(Decision(action.copy(), float(now[0]), predicted, label, gaps))
         return action
@@ -227,17 +238,15 @@ class Controller:
     def reach(self, aff: Affordance, binding: Binding, goal: np.ndarray, actuator: Actuator,
               budget: int) -> Attempt:
         """Pursue `goal` with `actuator` until reached, given up or `budget` actions."""
-        pursuit = self.pursue(aff, binding, goal, actuator.obs)
-        used = 0
-        while used < budget and not actuator.exhausted:
+        pursuit = self.pursue(aff, binding, goal, actuator.obs, budget)
+        while pursuit.used < budget and not actuator.exhausted:
             action = self.act(actuator.obs, pursuit)
             if action is None:
                 break
             actuator.act(action)
-            used += 1
         final = float(np.linalg.norm(pursuit.goal
                                      - self._value(aff.output, actuator.obs, binding)))
-        return Attempt(pursuit.start, final, used)
+        return Attempt(pursuit.start, final, pursuit.used)
 
     def chain(self, aff: Affordance, binding: Binding) -> tuple[Level, ...] | None:
         """The levels from `aff` down to an affordance of the primitive action, each
@@ -425,8 +434,11 @@ class Controller:
         else:
             length, u = np.linalg.norm(way, axis=1), _unit(way)
         cost = length / steps[0]
+        # What the movers below must do weighs as much as the step it serves: to move the
+        # goal entity less than a step, a mover need not be exactly in place.
+        share = np.clip(length / steps[0], 0.0, 1.0)
         if top.mover < 0:
-            cost = cost + self._turns(arr, plan, top.moved, u)
+            cost = cost + share * self._turns(arr, plan, top.moved, u)
         for i, lv in enumerate(levels[:-1]):
             if lv.relation is None or plan.places[i] is None or not is_vector(lv.affordance.output):
                 continue
@@ -439,7 +451,7 @@ class Controller:
             place = pos[:, lv.moved] - turned
             gap, toward, arrive = self._way(pos, radii, lv.mover, place, levels)
             low = steps[i + 1]
-            cost = cost + gap / low
+            cost = cost + share * gap / low
             push = _unit(_rotate(plan.inputs[i], u)) if plan.inputs[i] is not None else u
             w = np.clip(gap / low, 0.0, 1.0)
             u = _unit(w[:, None] * toward + (1.0 - w[:, None]) * push)
@@ -449,9 +461,9 @@ class Controller:
                 under = levels[i + 1].mover
                 turn = np.arccos(np.clip(np.sum(arrive * push, 1), -1.0, 1.0))
                 round_it = (radii[:, lv.mover] + radii[:, under]) * turn
-                cost = cost + w * round_it / steps[i + 2]
+                cost = cost + share * w * round_it / steps[i + 2]
             if levels[i + 1].mover < 0:
-                cost = cost + self._turns(arr, plan, lv.mover, u)
+                cost = cost + share * self._turns(arr, plan, lv.mover, u)
             if trace:
                 gaps.append(float(gap[0]))
                 if gap[0] > low:
@@ -485,11 +497,12 @@ class Controller:
         return _line_angle(heading, u) / plan.turn
 
     # ------------------------------------------------------------------ the search
-    def _search(self, obs: np.ndarray, plan: _Plan, now: float
+    def _search(self, obs: np.ndarray, plan: _Plan, pursuit: Pursuit
                 ) -> tuple[np.ndarray, float] | None:
         """The first command of the sequence (at most `horizon` deep, `beam` kept per depth)
-        whose imagined end has the least actions used plus estimated to go (`now` from
-        `obs`); None when none is predicted to end nearer than `now`."""
+        whose imagined end has the least actions used plus estimated to go (the estimate
+        raised where the pursuit learned it falls short), with that total; None when the
+        constraints allow no command."""
         n = self.commands.shape[0]
         states = obs[None]
         first = np.zeros(1, dtype=np.int64)
@@ -500,16 +513,41 @@ class Controller:
             if not ok.any():
                 break
             after, origin = after[ok], origin[ok]
-            to_go = self._to_go(after, plan)
+            to_go = self._to_go(after, plan) + self._raised(after, plan, pursuit)
             total = depth + to_go
             i = int(np.argmin(total))
             if best is None or total[i] < best[0] - 1e-9:
                 best = (float(total[i]), int(origin[i]), float(to_go[i]))
             keep = np.argsort(total, kind="stable")[:self.pc.beam]
             states, first = after[keep], origin[keep]
-        if best is None or best[2] >= now - 1e-6:
-            return None  # no sequence is predicted to bring the goal nearer
+        if best is None:
+            return None
         return self.commands[best[1]].copy(), best[0]
+
+    def _key(self, arr: np.ndarray, plan: _Plan) -> np.ndarray:
+        """Where the chain's bodies are in each observation of `arr`, in actions: positions
+        in the bottom level's steps, a turning mover's heading in its turns."""
+        pos, _ = self._bodies(arr)
+        entities = sorted({lv.moved for lv in plan.levels})
+        key = [pos[:, entities].reshape(arr.shape[0], -1) / plan.steps[-1]]
+        if np.isfinite(plan.turn):
+            lay = self.reader.layout
+            h = arr[:, lay.space(lay.entities[0], Property.HEADING).slice]
+            key.append(np.arctan2(h[:, 1:2], h[:, 0:1]) / plan.turn)
+        return np.concatenate(key, 1)
+
+    def _raised(self, arr: np.ndarray, plan: _Plan, pursuit: Pursuit) -> np.ndarray:
+        """What the pursuit learned the estimate falls short by at each observation of
+        `arr`: the most of the states it acted from within half an action of it."""
+        if not pursuit.seen:
+            return np.zeros(arr.shape[0])
+        key, seen = self._key(arr, plan), np.stack(pursuit.seen)
+        diff = key[:, None, :] - seen[None, :, :]
+        if np.isfinite(plan.turn):
+            diff[..., -1] = (diff[..., -1] + np.pi / plan.turn) % (2 * np.pi / plan.turn) \
+                - np.pi / plan.turn
+        near = np.max(np.abs(diff), axis=2) <= 0.5
+        return np.max(np.where(near, np.asarray(pursuit.raised)[None, :], 0.0), axis=1)
 
 
 def _entity(role: Role, b: Binding) -> int:
