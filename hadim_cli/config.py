@@ -390,335 +390,11 @@ class LearnerConfig:
 
 @dataclass(frozen=True)
 class PlannerConfig:
-    """How goals become primitive actions through the chain of learned affordances (paper
-    §4.3, docs/algorithm.md "Planner"). Stored with each run; a run stored before this section
-    existed keeps the planner it trained with (`LEGACY_DEFAULTS`: no navigation)."""
+    """The controller's constants: how a goal of an affordance becomes primitive actions, by
+    one receding-horizon search through the chain's forward models (paper §4.3;
+    hadim_cli/learner/controller.py, docs/controller.md). They are code, not data: a stored
+    run is evaluated, forked and resumed with the installed version's."""
 
-    max_depth: int = 4
-    """Deepest chain of affordances one goal is decomposed through."""
-    step_quantile: float = 0.9
-    """Sub-goals are cut to this quantile of an affordance's non-null outcome norms."""
-    context_support: float = 0.1
-    """Relations further apart than this (in their model's scale) vote apart when choosing the
-    context an outcome is usually produced from."""
-    agreement: float = 0.4
-    """Rows whose relation is within this (in their model's scale) of the densest one's agree
-    with it; the needed relation is fitted on them."""
-    place_support: float = 0.1
-    """A relation further than this many spreads (of that relation over the rows with an
-    effect) from the needed one is not the same place."""
-    realign: float = 0.45
-    """With `replace_by_cost` off: re-place when the current relation has drifted further than
-    this many spreads from the needed one."""
-    support_neighbours: int = 3
-    """Forward neighbours looked at to decide whether a context is supported by data."""
-    pose_match: float = 0.3
-    """Rows whose outcome is within this fraction of a step's length count as producing it."""
-    small_correction: float = 0.5
-    """A sub-goal's remainder shorter than this fraction of a typical step is not worth
-    re-placing for."""
-    subgoal_tolerance: float = 0.3
-    """A sub-goal counts as reached within this fraction of its affordance's typical step."""
-    approach_margin: float = 0.06
-    """Clearance (m) kept round an object when the route to a place goes round it."""
-    max_detours: int = 3
-    """Objects a route to a place goes round at most."""
-    avoid_margin: float = 0.05
-    """Gap (m) the robot keeps from an entity it must not touch (the target while a tool
-    moves it): the contact margin (0.02 m) plus about the held-out error of the robot's
-    motion model over one action."""
-    navigation: bool = True
-    """Reach the robot's places by a search over its learned motion (forward models of
-    action → robot.position and action → robot.heading), arriving facing the way the next
-    step moves; off: through the inverse model of action → robot.position, turning first."""
-    navigation_grid: int = 9
-    """Wheel commands per wheel (an n × n grid over [-1, 1]²) the navigation search scores."""
-    heading_tolerance: float = 0.35
-    """A place is reached facing the wanted way within this angle (rad); either way along it
-    counts (the robot drives backwards as well as forwards)."""
-    approach_distance: float = 0.08
-    """The last stretch (m) before a place is driven straight along the wanted heading."""
-    steer: bool = True
-    """Roughly aligned (the context relation within `realign` spreads of the needed one, but
-    off by more than `place_support`), a level pushes on and steers: its input entity moves by
-    the step asked from the needed relation plus the way back to that relation (a tool that
-    slid along the target's side is pushed on and back behind it), instead of a trip to the
-    needed place. Off: the fixed rule (`realign`) decides between pushing on as is and a
-    trip."""
-    pursue_line: bool = True
-    """With `hold_relation`: the input heads for the point one inverse-model step ahead of it
-    on the line it must push along (from its place in the needed relation to the output now,
-    toward the goal): pure pursuit, which brings an input off the line back onto it and turns
-    its contact with the output back onto the way. Off: it heads for its final place (the goal
-    less the needed relation), which corrects a lateral offset only as slowly as the distance
-    left allows while the contact slides further off."""
-    hold_relation: bool = True
-    """An input that is itself an object pushed by another affordance (the tool of
-    `tool.position → target.position`) heads, while its relation to the output is within
-    `realign` spreads of the needed one, for where it will be when the output is at its goal
-    (that goal less the needed relation), one inverse-model step at a time — instead of a
-    fresh inverse answer and steering each step. Its direction then stays put between steps,
-    and every change of it would cost its pusher a trip round it. Off: the inverse answer
-    and `steer` as for any input."""
-    finish_trips: bool = False
-    """A level whose last action served a trip to its needed context goes on with the trip
-    until it is within `place_support` of that context, instead of deciding afresh (and
-    pushing or steering as soon as the relation is back within `realign`). Off: every action
-    decides anew whether to re-place (docs/algorithm.md: fewer trips, a lower score retrained)."""
-    pose_places: bool = True
-    """An affordance acting from the robot's actions with the robot's heading as a context
-    besides a relation (`action → target.position | target-robot, robot.heading`): the place it
-    pushes from is chosen with the heading of the data there (pushes like the wanted one were
-    made facing it), and the robot drives there arriving facing it, in one trip. Off: the
-    heading needed is the one the robot had before the trip, and the robot turns back to it
-    after driving there."""
-    closer_places: bool = True
-    """A relation on the bearing of the needed one but shorter (the pusher nearer its object,
-    down to contact) counts as the needed place: only the bearing, and being further than
-    needed, take a pusher off its place. Off: any difference of the relation does (the push
-    that closed a gap read as a pusher off its place, and the next step sent it back)."""
-    contact_places: bool = True
-    """With `closer_places`: a trip to a needed relation that reads a gap between the bodies
-    drives to contact (plus the contact margin) on that relation's bearing instead, so the
-    first action from there pushes. Off (or `closer_places` off): to the needed relation as
-    it reads, from where the push's first action closes the gap."""
-    relations_seen: bool = False
-    """A needed relative position fitted shorter than every row it was fitted on (rows from
-    both sides of an object averaging to a place inside it) is replaced by the relation of
-    the row most rows agree with. Off: the fit stands."""
-    replace_by_cost: bool = False
-    """Re-place only when the trip (its estimated actions) plus pushing from the new place
-    costs less than pushing on from here at the rate the forward model predicts; off: the
-    fixed `realign` / `place_support` tolerances decide."""
-    near_pursuit: bool = True
-    """With `closer_places` and `pursue_line`: an input nearer its output than the needed
-    relation, on its bearing, pursues the line from where it stands (the needed relation
-    brought to its length), as it counts as at its place. Off: from the needed relation's
-    place behind it, so that a tool 9 cm nearer the target than needed was asked a move of
-    3 cm sideways — shorter than the tolerance of its pusher's sub-goal: nothing moved, and
-    the point stalled with its budget left (one retrained learner scored 0.00)."""
-    precise_places: bool = True
-    """Within a place's tolerance the navigator still prefers, of the commands it scores, the
-    one ending nearest the place: a push steers by a few centimetres (a contact 5° off the
-    line is 2 cm), less than the tolerance of a push's sub-goal. Off: every command ending
-    within the tolerance is as good, and the first of the grid (a full-speed straight drive)
-    is taken."""
-
-    route_search: bool = True
-    """With `navigation`: a trip of the robot to the place an affordance pushes from is
-    planned as a sequence of primitive actions (a search over the learned motion, at most
-    `route_depth` actions deep, that keeps out of every object and estimates what is left
-    round the objects in its way), replanned after every action. Off: one action at a time
-    toward waypoints round the objects in the way (out to each waypoint, a turn on the spot,
-    the next one)."""
-    route_depth: int = 6
-    """Actions ahead the trip search looks (`route_search`)."""
-    route_beam: int = 24
-    """Sequences the trip search keeps at each depth, the cheapest by their estimated
-    actions (`route_search`)."""
-    pusher_contacts: bool = True
-    """With `contact_places`: only a relation to the entity that pushes (the tool, for an
-    affordance acting through one; else the robot) is brought to contact on a trip. Off:
-    every relation the planner drives is, the robot's to the target under a tool affordance
-    too (runs stored before keep it off)."""
-    spare_stagings: bool = True
-    """A level whose input is another object (the tool level) spares a trip for a remainder
-    shorter than `small_correction` steps once its output has moved towards the goal, as a
-    goal with an entity to avoid does: that trip stages the object round the output, and its
-    pushes can shove the output further off than the remainder. Off: such a level chases
-    every remainder (runs stored before keep it off)."""
-
-    line_stagings: bool = False
-    """Option, off: an object staged round another to the place it pushes from (the tool to
-    behind the target) goes in one leg to the nearest point further back on the push's own
-    line (from the other object through that place) whose straight way there clears every
-    object, then along that line to the place: it arrives moving the way it will push, and
-    its pusher makes one trip round it for the turn instead of one per leg. Off (or no such
-    point inside the room): round the object in the way by two waypoints on an arc, a leg
-    for each third of the turn. Evaluation only it lowered the robot-only share a little;
-    retrained, not (docs/notes.md, eighteenth session)."""
-
-    direct_remainders: bool = False
-    """Option, off: with `hold_relation`, the last stretch of a level whose input is another
-    object (a remainder shorter than `small_correction` steps) is pushed by the inverse
-    model's answer from where the input stands, not by pursuit of the line: near the goal
-    the pursuit's point one step ahead can lie as far sideways as forward, and its pusher's
-    trip for that sideways move is refused as a small remainder, which ended goals 5-6 cm
-    short with most of their budget left. Off: the pursuit to the end (docs/notes.md,
-    eighteenth session)."""
-
-    skip_idle_repeats: bool = True
-    """A primitive action that moved nothing (no value of the observation changed) is not
-    asked again from the observation it left: the level asking gets nothing done, and gives
-    up or tries another way. Off: the planner, which decides from the observation alone,
-    repeats it until the attempt's budget is spent (a robot backing into a fixed object 28
-    times; runs stored before keep it off)."""
-
-    drifting_places: bool = True
-    """The navigator's stall count (a place given up after actions that get no closer)
-    follows a place that moved by less than its tolerance since the last action as the same
-    place. Off: a place is the same only to a tenth of a millimetre, and one computed afresh
-    every action (behind an object) never stalls (runs stored before keep it off)."""
-
-    face_places: bool = True
-    """With `navigation`: a trip of the robot that has brought it to its place goes on until
-    the robot faces the heading the place was taken with (the trip search arrives facing it
-    when it can), instead of ending there and leaving the turn to the push (a robot turned
-    57° by its trip turned 57° back for its first push). Off: the trip ends at the place
-    (runs stored before keep it off)."""
-
-    mirrored_relations: bool = True
-    """The place an affordance acts from (`Planner.needed_context`) is fitted over its rows and
-    their mirror images across the line of the wanted outcome: the room's physics is the same
-    in a mirror, and the place fitted over both sides of the line lies on it. Off: over the
-    rows as stored, whose place came out 3-8° (median) off the line of the push, at the edge
-    of the cone within which a pushed object keeps moving with its pusher (runs stored
-    before keep it off)."""
-
-    convoy: bool = True
-    """With `hold_relation`: an object pushing another (the tool pushing the target) within
-    `realign` of its place is asked to move along the move wanted of the output, at the length
-    whose outcome its forward model predicts nearest that move (`Planner.straight_move`),
-    instead of pursuing the line behind the output; and the robot pushing it for that move
-    pushes along the move asked of the object, at the length its own forward model predicts
-    best. A pushed object moves with its pusher while robot, tool and target are bent by less
-    than about 10° (docs/algorithm.md); the pursuit's sideways part and the push level's
-    redundant inverse answers bent the chain 14° (median) at the target's first push, and the
-    target left its way by 10°. Off: the pursuit and the inverse answers (runs stored before
-    keep it off)."""
-
-    convoy_facing: bool = True
-    """With `convoy`: the robot's push in a convoy step is a pose, its place and a heading
-    along the push (either way along it), so the robot drives straight along the move it is
-    asked for. A chain of discs goes where its pusher drives; asked for a place alone, the
-    robot reached each push's end by an arc, ±12° about the way, one arc one way and the next
-    the other, and the target went up to 15° off (docs/algorithm.md). Off: the place alone
-    (runs stored before keep it off)."""
-
-    convoy_plan: bool = True
-    """With `convoy`: each action of a convoy (the robot behind the object, within `realign`
-    of its place, the object within `realign` of its own) is chosen through the chain's
-    forward models — the robot's motion, its push of the object, the object's push of the
-    output — by the output's predicted distance to its goal and the two relations' predicted
-    drift (`Planner._convoy_plan`). The convoy pushed straight drifts 6-10° a push, the target
-    going along the tool-target line of centres, until a correction of about 18 robot-only
-    actions (docs/notes.md, twenty-third session); retrained on thirty-five seeds the tool
-    task's robot-only share fell from 62.2 to 58.1 % (docs/algorithm.md). Off: the straight
-    convoy step (runs stored before keep it off)."""
-
-    convoy_turn: float = 8.0
-    """With `convoy_plan`: the largest predicted turn (degrees) of the robot's commands it
-    considers: the push's model reads the robot's net move, which an arc and a straight push
-    share, and errs 0.6 cm (median) under 5°, 1.6-1.9 cm at 5-30°."""
-
-    convoy_drift_cost: float = 3.0
-    """With `convoy_plan`: the cost, in steps of the output's way, of a relation predicted to
-    drift to `realign` (where a correction of two trips would follow)."""
-
-    convoy_trailing: bool = True
-    """With `convoy`: an object behind the output on the bearing of its place but short of
-    it (the tool trailing behind the target, not yet touching it) holds the relation for a
-    convoy: the relation's gap to its place is taken at its own length (`Planner._convoy_hold`),
-    and the convoy's first push closes the distance. Off: the distance counts as drift, and a
-    tool staged a few centimetres short, or set out behind the target from the start, cost a
-    trip to the place at contact before the convoy (runs stored before keep it off)."""
-
-    convoy_goes_on: bool = True
-    """With `convoy_plan`: a convoy whose tool–target relation drifted past `realign` goes on
-    through the chain, instead of a correction, while pushing on along the tool–target line
-    would bring the target within `small_correction` of a step of its goal
-    (`Planner._goes_on`): near a goal a correction gains little (traced: three corrections of
-    13–24 actions for 8 cm, each leaving the line 15–25° off again). Off: every drift past
-    `realign` re-stages the tool (runs stored before keep it off)."""
-
-    convoy_depth: int = 1
-    """With `convoy_plan`: how many actions in a row the convoy imagines through the chain's
-    forward models before it chooses the first."""
-
-    stall_trips: bool = True
-    """A sub-goal's correction shorter than `small_correction` steps is spared a trip while
-    the goal it serves can do something else; once that goal stalled (its last step moved
-    nothing) while still more than `small_correction` of its own steps away, the next one is
-    made. Off: always spared: a staging whose tool was a few centimetres off its place, the
-    tool's pusher refused the trip, the tool level asked for the same staging again, and the
-    point ended with its target unmoved (seed 59 at 2000: 0.02; docs/algorithm.md). Runs
-    stored before keep it off."""
-
-    room_places: bool = True
-    """A place for the robot or an object closer to a wall than the body's radius (outside the
-    room's position space, less that radius) is one it cannot take: the step that needs it is
-    not taken. Off: driven toward all the same — in training a tool goal whose target stood
-    against a wall sent the tool toward a place beyond the wall for the whole 40-action
-    budget (docs/algorithm.md). Runs stored before keep it off."""
-
-    solid_bodies: bool = True
-    """A needed relative position that places an object overlapping another (shorter than
-    contact: a young model's fit, or rows from both sides of an object averaging to a place
-    inside it) is brought out to contact on its own bearing: no object is staged inside
-    another. The robot's place pressed into the object it pushes stands (its trip ends
-    pushing). Off: the fit stands, and a tool asked to stand inside its target shoves the
-    target while it is staged, the place behind it moving with every push (seed 10 at 2000:
-    0.53; docs/algorithm.md). Runs stored before keep it off."""
-
-    short_subgoals: bool = True
-    """A sub-goal shorter than its affordance's typical step counts as reached within
-    `subgoal_tolerance` of its own length, not of a step: the convoy's last step asked the
-    tool for 3.7 cm, its pusher's sub-goal read as reached within 4.5 cm before any action,
-    and the point ended 3.7 cm from its goal with 75 of its 80 actions left. A goal reached
-    through an affordance's steps only: the navigator's place for one move of the robot keeps
-    the share of a step (made relative too, the robot-only share rose: docs/algorithm.md).
-    Off: the share of a step whatever the sub-goal's length (runs stored before keep it
-    off)."""
-
-    def validate(self) -> None:
-        for name in ("max_depth", "support_neighbours", "max_detours", "navigation_grid",
-                     "route_depth", "route_beam"):
-            value = getattr(self, name)
-            _check(value >= 1, f"planner.{name}", "must be >= 1", value)
-        _check(self.navigation_grid >= 3, "planner.navigation_grid", "must be >= 3",
-               self.navigation_grid)
-        _check(0.0 < self.step_quantile <= 1.0, "planner.step_quantile", "must be in (0, 1]",
-               self.step_quantile)
-        for name in ("context_support", "agreement", "place_support", "realign", "pose_match",
-                     "small_correction", "subgoal_tolerance", "heading_tolerance"):
-            value = getattr(self, name)
-            _check(value > 0, f"planner.{name}", "must be > 0", value)
-        for name in ("approach_margin", "avoid_margin", "approach_distance",
-                     "convoy_drift_cost"):
-            value = getattr(self, name)
-            _check(value >= 0, f"planner.{name}", "must be >= 0", value)
-        _check(0.0 <= self.convoy_turn <= 180.0, "planner.convoy_turn", "must be in [0, 180]",
-               self.convoy_turn)
-        _check(self.convoy_depth >= 1, "planner.convoy_depth", "must be >= 1",
-               self.convoy_depth)
-
-
-@dataclass(frozen=True)
-class EvaluationConfig:
-    """Periodic evaluation during training (paper §5.1, Fig. 2)."""
-
-    every: int = 200
-    """Evaluate every this many iterations (a multiple of the episode length); 0 = never."""
-    tasks: tuple[str, ...] = ("move-robot", "push-object", "push-with-tool")
-    """Tasks (files in configs/tasks/) evaluated periodically."""
-
-    def validate(self) -> None:
-        _check(self.every >= 0, "evaluation.every", "must be >= 0 (0 disables)", self.every)
-
-
-CONTROLLERS = ("rules", "search")
-"""The controllers that turn goals into primitive actions (`ControllerConfig.kind`)."""
-
-
-@dataclass(frozen=True)
-class ControllerConfig:
-    """Which controller turns goals into primitive actions, and the search controller's
-    constants (hadim_cli/learner/controller.py, docs/algorithm.md "The search controller")."""
-
-    kind: str = "rules"
-    """"rules": the planner of docs/algorithm.md, the default; "search": one receding-horizon
-    search over the chain's forward models (it does not yet reach the planner's scores on the
-    tool task: docs/results.md)."""
     commands: int = 9
     """Primitive actions the search tries: an n × n grid over the action space."""
     horizon: int = 1
@@ -738,18 +414,29 @@ class ControllerConfig:
     """Rows within this (in their model's scale) of the densest relation fit the place."""
 
     def validate(self) -> None:
-        _check(self.kind in CONTROLLERS, "controller.kind",
-               f"must be one of {', '.join(CONTROLLERS)}", self.kind)
         for name in ("commands", "horizon", "beam"):
-            _check(getattr(self, name) >= 1, f"controller.{name}", "must be >= 1",
+            _check(getattr(self, name) >= 1, f"planner.{name}", "must be >= 1",
                    getattr(self, name))
-        _check(self.commands >= 2, "controller.commands", "must be >= 2", self.commands)
-        _check(0.0 < self.step_quantile <= 1.0, "controller.step_quantile",
+        _check(self.commands >= 2, "planner.commands", "must be >= 2", self.commands)
+        _check(0.0 < self.step_quantile <= 1.0, "planner.step_quantile",
                "must be in (0, 1]", self.step_quantile)
         for name in ("context_support", "agreement"):
-            _check(getattr(self, name) > 0, f"controller.{name}", "must be > 0",
+            _check(getattr(self, name) > 0, f"planner.{name}", "must be > 0",
                    getattr(self, name))
-        _check(self.clearance >= 0, "controller.clearance", "must be >= 0", self.clearance)
+        _check(self.clearance >= 0, "planner.clearance", "must be >= 0", self.clearance)
+
+
+@dataclass(frozen=True)
+class EvaluationConfig:
+    """Periodic evaluation during training (paper §5.1, Fig. 2)."""
+
+    every: int = 200
+    """Evaluate every this many iterations (a multiple of the episode length); 0 = never."""
+    tasks: tuple[str, ...] = ("move-robot", "push-object", "push-with-tool")
+    """Tasks (files in configs/tasks/) evaluated periodically."""
+
+    def validate(self) -> None:
+        _check(self.every >= 0, "evaluation.every", "must be >= 0 (0 disables)", self.every)
 
 
 @dataclass(frozen=True)
@@ -761,9 +448,7 @@ class Config:
     learner: LearnerConfig = field(default_factory=LearnerConfig)
     """The affordance learner."""
     planner: PlannerConfig = field(default_factory=PlannerConfig)
-    """The planner that chains affordances to reach goals."""
-    controller: ControllerConfig = field(default_factory=ControllerConfig)
-    """Which controller turns goals into actions (the planner's rules, or the search)."""
+    """The controller that chains affordances to reach goals."""
     evaluation: EvaluationConfig = field(default_factory=EvaluationConfig)
     """Periodic evaluation."""
 
@@ -900,35 +585,29 @@ LEGACY_DEFAULTS: dict[str, dict[str, Any]] = {
                 "p_a_refusals": False, "open_contexts": False, "absorb_mismatch": True,
                 "k_choices": (), "chain_objects": False,
                 "own_relations": False},
-    "planner": {"navigation": False, "steer": False, "hold_relation": False,
-                "pose_places": False, "pursue_line": False, "closer_places": False,
-                "contact_places": False, "precise_places": False,
-                "near_pursuit": False, "route_search": False, "spare_stagings": False,
-                "pusher_contacts": False, "skip_idle_repeats": False,
-                "drifting_places": False, "face_places": False,
-                "mirrored_relations": False, "convoy": False,
-                "convoy_facing": False, "short_subgoals": False, "convoy_plan": False,
-                "stall_trips": False, "room_places": False, "solid_bodies": False,
-                "convoy_trailing": False, "convoy_goes_on": False},
 }
 """Keys added after runs were first stored, with the value that reproduces what a run stored
 without them did (its defaults then): a stored run restores the learner it trained (the
-planner's constants are code, and follow the installed version)."""
+controller's constants are code, and follow the installed version: `CODE_SECTIONS`)."""
 
 
 CODE_SECTIONS = ("planner", "controller")
-"""Sections whose keys are constants of the installed code, not of the run: a stored run's
-keys that the installed version no longer has are dropped (a run's D, H and models are data;
-how goals are turned into actions is code)."""
+"""Sections of a stored run's config that hold constants of the code that turned its goals
+into actions, not of its data (D, H and the models): their keys the installed version does
+not know are dropped (a section it does not know, "controller" of the earlier search
+variant, entirely), and the installed version's constants are used."""
 
 
 def stored_config(values: Mapping[str, Any]) -> Config:
     """The Config of a stored run: `values`, with `LEGACY_DEFAULTS` for keys it lacks and
     without the keys of `CODE_SECTIONS` the installed version does not know."""
+    hints = typing.get_type_hints(Config)
     filled = dict(values)
     for section in CODE_SECTIONS:
-        if isinstance(filled.get(section), Mapping):
-            known = {f.name for f in dataclasses.fields(typing.get_type_hints(Config)[section])}
+        if section not in hints:
+            filled.pop(section, None)
+        elif isinstance(filled.get(section), Mapping):
+            known = {f.name for f in dataclasses.fields(hints[section])}
             filled[section] = {k: v for k, v in filled[section].items() if k in known}
     for section, legacy in LEGACY_DEFAULTS.items():
         table = dict(filled.get(section, {}))

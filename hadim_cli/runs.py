@@ -201,6 +201,18 @@ def package_versions() -> dict[str, str]:
     return out
 
 
+def version_note(run: RunRecord) -> str | None:
+    """One line when `run` was trained by another hadim version than the installed one
+    (None when the same, or unknown): a run's D, H and models are data, read as stored; the
+    controller that turns goals into actions is code, the installed version's."""
+    trained = (run.versions or {}).get("hadim")
+    installed = package_versions()["hadim"]
+    if trained in (None, "unknown") or trained == installed:
+        return None
+    return (f"note: run {run.name} was trained with hadim {trained}; hadim {installed} acts "
+            f"for it (its D, H and models as stored, the installed controller)")
+
+
 def owner_id() -> str:
     return f"{socket.gethostname()}:{os.getpid()}"
 

@@ -67,8 +67,7 @@ class Session:
         root = np.random.default_rng(seed)
         self.world_rng, self.learner_rng = root.spawn(2)
         self.world = World(config.world)
-        self.learner = Learner(config.learner, self.world.layout, config.planner,
-                               config.controller)
+        self.learner = Learner(config.learner, self.world.layout, config.planner)
         self.episodes_done = 0
 
     @property

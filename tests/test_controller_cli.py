@@ -1,7 +1,7 @@
-"""The search controller as a user meets it: a run trained with it (`--set
-controller.kind=search`) is deterministic; `hadim eval RUN --controller KIND` evaluates a run
-with the other controller as a diagnostic that is not stored; a bad kind is one `error:`
-line."""
+"""The controller as a user meets it: a removed planner key (`--set planner.convoy=true`, or
+one in a config file) is one `error:` line naming it, exit 2, nothing stored; `hadim eval
+RUN --exact LEVEL` imagines levels by the room's physics as a diagnostic that is not stored;
+an unknown level is one `error:` line."""
 
 from __future__ import annotations
 
@@ -13,8 +13,7 @@ from typer.testing import CliRunner
 
 from hadim_cli.app import app
 
-SMALL = ("--set", "world.episode_length=25", "--set", 'evaluation.tasks=["move-robot"]',
-         "--set", "controller.kind=search")
+SMALL = ("--set", "world.episode_length=25", "--set", 'evaluation.tasks=["move-robot"]')
 
 
 def invoke(*args: object):
@@ -22,26 +21,27 @@ def invoke(*args: object):
 
 
 @pytest.fixture(scope="module")
-def searched(tmp_path_factory) -> Path:
-    """run-1 and run-2: the same 150 iterations with the search controller."""
-    store = tmp_path_factory.mktemp("search") / "s.sqlite"
-    for _ in range(2):
-        result = invoke("train", "--iterations", 150, "--eval-every", 0, *SMALL,
-                        "--store", store)
-        assert result.exit_code == 0, (result.stderr, result.exception)
+def trained(tmp_path_factory) -> Path:
+    """run-1: 150 iterations."""
+    store = tmp_path_factory.mktemp("controller") / "s.sqlite"
+    result = invoke("train", "--iterations", 150, "--eval-every", 0, *SMALL, "--store", store)
+    assert result.exit_code == 0, (result.stderr, result.exception)
     return store
 
 
-def _show(store: Path, run: str) -> dict:
-    result = invoke("runs", "show", run, "--json", "--store", store)
-    assert result.exit_code == 0, result.stderr
-    return json.loads(result.stdout)
+def _one_error(result, *words: str) -> None:
+    assert result.exit_code == 2, (result.exit_code, result.stdout)
+    lines = result.stderr.strip().splitlines()
+    assert len(lines) == 1 and lines[0].startswith("error: "), result.stderr
+    for word in words:
+        assert word in lines[0]
 
 
-def test_a_run_trained_with_the_search_controller_repeats_bit_for_bit(searched):
-    one, two = _show(searched, "run-1"), _show(searched, "run-2")
-    assert one["config"]["controller"]["kind"] == "search"
-    assert one["dataset_sha256"] == two["dataset_sha256"]
+def _runs(store: Path) -> int:
+    from hadim_cli.runs import open_store
+
+    with open_store(str(store), create=False, writes=False) as st:
+        return len(st.list_runs())
 
 
 def _evaluations(store: Path) -> int:
@@ -51,21 +51,77 @@ def _evaluations(store: Path) -> int:
         return len(st.evaluations("run-1"))
 
 
-def test_eval_with_another_controller_is_a_diagnostic_not_stored(searched):
-    before = _evaluations(searched)
-    result = invoke("eval", "run-1", "--task", "move-robot", "--controller", "rules",
-                    "--json", "--store", searched)
+@pytest.mark.parametrize("key", ["convoy", "navigation", "route_beam", "max_depth"])
+def test_a_removed_planner_key_is_one_error_line_and_nothing_is_stored(trained, key):
+    before = _runs(trained)
+    result = invoke("train", "--iterations", 50, *SMALL, "--set", f"planner.{key}=true",
+                    "--store", trained)
+    _one_error(result, f"planner.{key}")
+    assert _runs(trained) == before
+
+
+def test_a_config_file_with_a_removed_planner_key_is_one_error_line(trained, tmp_path):
+    config = tmp_path / "old.toml"
+    config.write_text("[planner]\nconvoy_plan = true\n")
+    before = _runs(trained)
+    result = invoke("train", "--iterations", 50, "--config", config, "--store", trained)
+    _one_error(result, "planner.convoy_plan")
+    assert _runs(trained) == before
+
+
+def test_the_search_variant_section_is_gone(trained):
+    result = invoke("train", "--iterations", 50, *SMALL, "--set", "controller.kind=search",
+                    "--store", trained)
+    _one_error(result, "controller")
+
+
+@pytest.mark.parametrize("levels", [("navigation",), ("push",), ("navigation", "push", "tool")])
+def test_eval_with_exact_levels_is_a_diagnostic_not_stored(trained, levels):
+    before = _evaluations(trained)
+    flags = [a for level in levels for a in ("--exact", level)]
+    result = invoke("eval", "run-1", "--task", "move-robot", *flags, "--json",
+                    "--store", trained)
     assert result.exit_code == 0, result.stderr
     assert 0.0 <= json.loads(result.stdout)["score"] <= 1.0
-    assert _evaluations(searched) == before
-    stored = invoke("eval", "run-1", "--task", "move-robot", "--store", searched)
-    assert stored.exit_code == 0, stored.stderr
-    assert _evaluations(searched) == before + 1
+    assert _evaluations(trained) == before
 
 
-def test_an_unknown_controller_is_one_error_line(searched):
-    result = invoke("eval", "run-1", "--task", "move-robot", "--controller", "magic",
-                    "--store", searched)
-    assert result.exit_code == 2
-    lines = result.stderr.strip().splitlines()
-    assert len(lines) == 1 and lines[0].startswith("error: ") and "magic" in lines[0]
+def test_an_unknown_exact_level_is_one_error_line(trained):
+    result = invoke("eval", "run-1", "--task", "move-robot", "--exact", "magic",
+                    "--store", trained)
+    _one_error(result, "magic")
+
+
+def _trained_by(store: Path, version: str) -> None:
+    import sqlite3
+
+    with sqlite3.connect(store) as db:
+        db.execute("UPDATE runs SET versions_json = ? WHERE name = 'run-1'",
+                   (json.dumps({"hadim": version}),))
+
+
+@pytest.mark.parametrize("command", [
+    ("eval", "run-1", "--task", "move-robot"),
+    ("fork", "run-1", "--name", "child"),
+    ("resume", "run-1", "--iterations", 175),
+])
+def test_a_run_of_another_version_is_acted_for_by_the_installed_code_in_one_line(
+        trained, tmp_path, command):
+    import shutil
+
+    store = tmp_path / "copy.sqlite"
+    shutil.copy(trained, store)
+    _trained_by(store, "0.0.1")
+    result = invoke(*command, "--store", store)
+    assert result.exit_code == 0, result.stderr
+    notes = [line for line in result.stderr.splitlines() if "0.0.1" in line]
+    assert len(notes) == 1 and "run-1" in notes[0], result.stderr
+    _trained_by(store, _installed())
+    again = invoke("eval", "run-1", "--task", "move-robot", "--store", store)
+    assert again.exit_code == 0 and "trained with" not in again.stderr
+
+
+def _installed() -> str:
+    from importlib import metadata
+
+    return metadata.version("hadim")

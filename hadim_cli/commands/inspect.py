@@ -269,12 +269,10 @@ def eval_cmd(
         "--animate", help="Also draw every point's attempt, action by action, to this GIF.")
     ] = None,
     exact: Annotated[list[str] | None, typer.Option(
-        "--exact", help="Replace a level of the chain by the scripted controller's exact one "
-        "(a diagnostic, not stored): navigation (the robot's motion), push (an object "
-        "pushed to a point) or tool (where the tool goes next); repeat to combine.")] = None,
-    controller: Annotated[str | None, typer.Option(
-        "--controller", help="Evaluate with this controller instead of the run's: rules or "
-        "search (a diagnostic, not stored).")] = None,
+        "--exact", help="Imagine a level of the chain by the room's physics instead of its "
+        "learned model (a diagnostic, not stored): navigation (the robot's motion), push (a "
+        "body pushed by the robot) or tool (a body pushed by another); repeat to combine.")
+    ] = None,
     budget: Annotated[int | None, typer.Option(
         "--budget", help="Actions per point instead of the task's own (1-10000; stored as "
         "TASK@N, e.g. push-object@1000: the episode-success measure of docs/baselines.md)."
@@ -284,14 +282,11 @@ def eval_cmd(
 ) -> None:
     """Evaluate a run (learner or baseline) on a task's target points and store the score."""
     from hadim_cli import runs
-    from hadim_cli.config import CONTROLLERS
     from hadim_cli.evaluation.tasks import load_task, load_task_file
     from hadim_cli.reports import render_eval
 
     if (task is None) == (points is None):
         raise HadimError("give exactly one of --task NAME or --points FILE")
-    if controller is not None and controller not in CONTROLLERS:
-        raise HadimError(f"--controller {controller}: unknown (known: {', '.join(CONTROLLERS)})")
     chosen = _with_budget(load_task(task) if task is not None else load_task_file(points),
                           budget)
     with runs.open_store(store, create=False, run=run) as st:
@@ -300,13 +295,13 @@ def eval_cmd(
         if at is not None and at > record.iterations:
             raise HadimError(f"--at {at} is beyond run {run}'s {record.iterations} iterations")
         if runs.run_kind(record) is runs.RunKind.BASELINE:
-            if animate is not None or exact or controller:
-                raise HadimError("--animate, --exact and --controller are diagnostics of the "
-                                 f"learner's controller; run {run} is a baseline run")
+            if animate is not None or exact:
+                raise HadimError("--animate and --exact are diagnostics of the learner's "
+                                 f"controller; run {run} is a baseline run")
             result, session = _eval_baseline(st, record, chosen, at)
         else:
             result, session = _eval_learner(st, record, chosen, at, tuple(exact or ()),
-                                            animate is not None, controller)
+                                            animate is not None)
     if animate is not None:
         from hadim_cli.evaluation.animate import animate as draw
 
@@ -350,13 +345,10 @@ def _eval_baseline(st, record, chosen, at: int | None):
     return result, session
 
 
-def _eval_learner(st, record, chosen, at: int | None, exact: tuple[str, ...], animate: bool,
-                  controller: str | None):
+def _eval_learner(st, record, chosen, at: int | None, exact: tuple[str, ...], animate: bool):
     """The learner's H on `chosen`; the task is checked against the run's world first, so a
-    target it cannot reach is refused before the session is restored. With `exact` levels or
-    another `controller` the score is a diagnostic, not stored."""
-    import dataclasses
-
+    target it cannot reach is refused before the session is restored. With `exact` levels
+    the score is a diagnostic, not stored."""
     from hadim_cli import runs
     from hadim_cli.config import stored_config
     from hadim_cli.evaluation.tasks import check_task
@@ -365,14 +357,12 @@ def _eval_learner(st, record, chosen, at: int | None, exact: tuple[str, ...], an
     from hadim_cli.evaluation.exact import exact_levels
     from hadim_cli.evaluation.runner import evaluate
 
+    if (note := runs.version_note(record)) is not None:
+        typer.echo(note, err=True)
     session = runs.restore_session(st, record, at)
-    other = controller not in (None, session.config.controller.kind)
-    if other:
-        session.learner.use_controller(dataclasses.replace(session.config.controller,
-                                                           kind=controller))
     with exact_levels(session.learner, session.config.world, exact):
         result = evaluate(session.learner, session.config.world, chosen, record=animate)
-    if not exact and not other:  # an exact level or another controller: a diagnostic
+    if not exact:  # an exact level: a diagnostic
         st.add_evaluation(record.name, session.iteration, chosen.name, result.score,
                           result.to_dict()["points"])
     return result, session

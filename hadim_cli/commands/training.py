@@ -89,6 +89,8 @@ def _resume_learner(st, record, iterations: int | None, eval_every: int | None,
     config = stored_config(record.config)
     every = _eval_every(eval_every, config)
     driver.refuse_if_locked(st, record.name)
+    if (note := runs.version_note(record)) is not None:
+        typer.echo(note, err=True)
     session = runs.restore_session(st, record)
     driver.drive(st, record.name, session, total, every, store_option, runs.train,
                  config.evaluation.tasks)
@@ -113,6 +115,8 @@ def fork(
         if runs.run_kind(parent) is runs.RunKind.BASELINE:
             raise HadimError(f"run {run} is a baseline run: fork is for the learner's runs")
         config = with_overrides(stored_config(parent.config), set_ or [])
+        if (note := runs.version_note(parent)) is not None:
+            typer.echo(note, err=True)
         if set_:  # refuse, before writing anything, a config that cannot continue this history
             runs.restore_session(st, parent, parent.iterations if at is None else at, config)
         child = st.fork(run, at_iteration=at, config=config.to_dict(),

@@ -1,6 +1,6 @@
 """Run a task against a learner's current H without changing the learner.
 
-Each point starts from the task's scene in a world of its own. The planner draws no random
+Each point starts from the task's scene in a world of its own. The controller draws no random
 numbers and evaluation never writes to D, H or any generator of the learner.
 """
 
@@ -24,9 +24,7 @@ from hadim_cli.learner.affordance import Affordance
 from hadim_cli.learner.controller import Controller, Decision
 from hadim_cli.learner.explorer import Learner
 from hadim_cli.learner.goals import Binding
-from hadim_cli.learner.navigation import ROBOT_HEADING
-from hadim_cli.learner.planner import Planner
-from hadim_cli.learner.spaces import Property, Role, RoleSpace
+from hadim_cli.learner.spaces import ROBOT_HEADING, Property, Role, RoleSpace
 from hadim_cli.world.layout import ObservationLayout
 from hadim_cli.world.world import World
 
@@ -59,7 +57,9 @@ class PointResult:
     robot_path: float = 0.0
     """Distance (m) the robot drove during the point's attempt."""
     trips: int = 0
-    """Trips the planner took to a place (behind an object, a tool behind the target)."""
+    """Trips the controller took to a place: stretches of actions serving a lower level's
+    mover on its way to the place its affordance acts from (behind an object, a tool behind
+    the target: `Decision.label` "place …")."""
     line_deviation: float = 0.0
     """Largest distance (m) of the driven entity from the straight line start → point: how
     far off the line it was pushed (or drove)."""
@@ -73,11 +73,9 @@ class PointResult:
     first_push: FirstPush | None = None
     """How the first action that moved the driven object was lined up (push tasks)."""
     pursuits: dict[str, int] = field(default_factory=dict)
-    """Actions by what the planner pursued when it chose them, below the task's own goal:
-    its chain of pursuits joined by " / ", outermost first (the goal's own affordance when
-    it acts directly; e.g. `place target-tool for A6 /
-    A4 target.position / place target-robot for A4 / navigate robot.position`: the robot
-    driving to push the tool into place), most actions first. Where the budget went, level
+    """Actions by what the controller served when it chose them (`Decision.label`: the
+    lowest level whose mover was off its place, e.g. `place robot for A3`, else the goal's
+    own affordance, `A6 target.position`), most actions first. Where the budget went, level
     by level."""
     driven_moves: int = 0
     """Actions that moved the driven entity (the task's object, or the robot) by `MOVED`."""
@@ -93,7 +91,7 @@ class PointResult:
 
 @dataclass(frozen=True)
 class Step:
-    """What the planner pursued when it chose one primitive action (outermost first)."""
+    """What the controller served when it chose one primitive action."""
 
     labels: tuple[str, ...]
     goals: tuple[tuple[float, ...], ...]
@@ -145,19 +143,23 @@ class EvalActuator:
     """Steps the evaluation world within a budget, watching robot–target contacts."""
 
     def __init__(self, world: World, obs: np.ndarray, budget: int, watch: str | None,
-                 planner: Planner | Controller | None = None, record: bool = False):
+                 controller: Controller | None = None, record: bool = False):
         self.world = world
         self._obs = obs
         self.budget = budget
         self.used = 0
         self.watch = tuple(sorted(("robot", watch))) if watch else None
         self.touched = False
-        self.planner = planner
-        """When given, each action is counted by what `planner` pursued (`pursuits`), and
-        with `record` kept with the observation after it."""
+        self.controller = controller
+        """When given, each action is counted by what `controller` served (`pursuits`,
+        `trips`), and with `record` kept with the observation after it."""
         self._decision: Decision | None = None
-        if isinstance(planner, Controller):
-            planner.observer = self._decided
+        if controller is not None:
+            controller.observer = self._decided
+        self.trips = 0
+        self.trip_starts: list[float] = []
+        """Per trip, the driven entity's remaining share of its way when the trip began."""
+        self._last_label = ""
         self.record = record
         self.pursuits: dict[str, int] = {}
         self.observations = [obs.copy()]
@@ -175,14 +177,6 @@ class EvalActuator:
 
     def _decided(self, decision: Decision) -> None:
         self._decision = decision
-
-    def _pursuing(self) -> list[tuple[str, tuple[float, ...]]]:
-        """What the controller pursued when it chose the last action: its labels and goals,
-        outermost first."""
-        if isinstance(self.planner, Controller):
-            d = self._decision
-            return [] if d is None else [(d.label, ())]
-        return [(p.label, tuple(map(float, p.goal))) for p in self.planner.stack]
 
     def follow(self, entity: int, start: np.ndarray, point: np.ndarray) -> None:
         """Measure `entity`'s largest distance from the segment start → point, and the
@@ -225,13 +219,17 @@ class EvalActuator:
             if moved >= MOVED:
                 self.driven_moves += 1
                 self.driven_path += moved
-        if self.planner is not None:
-            pursuing = self._pursuing()
-            labels = [label for label, _ in pursuing]
-            chain = " / ".join(labels[1:]) or (labels[0] if labels else "")
-            self.pursuits[chain] = self.pursuits.get(chain, 0) + 1
+        if self.controller is not None:
+            label = "" if self._decision is None else self._decision.label
+            if label.startswith("place") and not self._last_label.startswith("place"):
+                self.trips += 1
+                if self.line is not None:
+                    where, a, b = self.line
+                    self.trip_starts.append(remaining_share(last[where], a, b))
+            self._last_label = label
+            self.pursuits[label] = self.pursuits.get(label, 0) + 1
             if self.record:
-                self.steps.append(Step(tuple(labels), tuple(goal for _, goal in pursuing)))
+                self.steps.append(Step((label,), ((),)))
                 self.observations.append(self._obs.copy())
         if self.watch is not None and self.watch in self.world.last_contacts:
             self.touched = True
@@ -248,7 +246,7 @@ def _turn_to(learner: Learner, heading: float, actuator: EvalActuator, budget: i
     if turners and budget > 0:
         turner = max(turners, key=lambda a: a.competence)
         goal = np.array([np.cos(heading), np.sin(heading)])
-        learner.planner.reach(turner, Binding(), goal, actuator, budget)
+        learner.controller.reach(turner, Binding(), goal, actuator, budget)
 
 
 def angle_between(a: np.ndarray, b: np.ndarray) -> float:
@@ -314,7 +312,7 @@ def _entity_index(world: World, name: str | None, task: Task) -> int:
 def evaluate(learner: Learner, world_config: WorldConfig, task: Task,
              record: bool = False) -> TaskResult:
     """Attempt every point of `task`; score = 1 − mean(min(1, final / initial distance)).
-    `record`: also keep each point's observations and what the planner pursued."""
+    `record`: also keep each point's observations and what the controller served."""
     check_task(task, world_config)
     world = World(world_config)
     aff = choose_affordance(learner, task)
@@ -326,18 +324,14 @@ def evaluate(learner: Learner, world_config: WorldConfig, task: Task,
         entity = 0 if task.entity == "robot" else target
         start = learner.reader.entity_position(obs, entity).copy()
         actuator = EvalActuator(world, obs, task.budget, task.target if task.tool else None,
-                                learner.planner, record)
+                                learner.controller, record)
         actuator.follow(entity, start, np.asarray(point))
         if entity > 0:
             actuator.watch_push(entity, tool, np.asarray(point))
         start_heading = _heading(world)
         if aff is not None:
             binding = Binding(target=target, tool=tool) if aff.has_target else Binding()
-            learner.planner.reach(aff, binding, np.asarray(point), actuator, task.budget)
-        rules = isinstance(learner.planner, Planner) and aff is not None
-        trips = learner.planner.trips if rules else 0
-        shares = tuple(remaining_share(learner.reader.entity_position(o, entity), start, point)
-                       for o in learner.planner.trip_starts) if rules else ()
+            learner.controller.reach(aff, binding, np.asarray(point), actuator, task.budget)
         final = learner.reader.entity_position(actuator.obs, entity).copy()
         error = 1.0 if actuator.touched else point_error(start, final, point)
         if task.headings is not None:
@@ -347,8 +341,9 @@ def evaluate(learner: Learner, world_config: WorldConfig, task: Task,
         results.append(PointResult(tuple(point), tuple(map(float, start)),
                                    tuple(map(float, final)), error, actuator.used,
                                    -1 if aff is None else aff.id, actuator.touched,
-                                   actuator.path, trips, actuator.deviation,
-                                   actuator.robot_only, shares, actuator.first_push,
+                                   actuator.path, actuator.trips, actuator.deviation,
+                                   actuator.robot_only, tuple(actuator.trip_starts),
+                                   actuator.first_push,
                                    dict(sorted(actuator.pursuits.items(),
                                                key=lambda kv: (-kv[1], kv[0]))),
                                    actuator.driven_moves, actuator.driven_path,

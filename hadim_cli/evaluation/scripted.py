@@ -42,8 +42,7 @@ from hadim_cli.config import WorldConfig
 from hadim_cli.evaluation.metric import heading_error, point_error, task_score
 from hadim_cli.evaluation.runner import EvalActuator, segment_distance
 from hadim_cli.evaluation.tasks import Task, load_task, load_task_file, task_names
-from hadim_cli.learner.navigation import ROBOT_HEADING
-from hadim_cli.learner.spaces import SpaceReader
+from hadim_cli.learner.spaces import ROBOT_HEADING, SpaceReader
 from hadim_cli.world.world import World, wrap_angle
 
 LOOKAHEAD = 0.03

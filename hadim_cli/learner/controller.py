@@ -35,7 +35,7 @@ from typing import NamedTuple
 
 import numpy as np
 
-from hadim_cli.config import ControllerConfig, LearnerConfig
+from hadim_cli.config import LearnerConfig, PlannerConfig
 from hadim_cli.learner.affordance import Affordance, typical_step
 from hadim_cli.learner.competence import split_zero
 from hadim_cli.learner.frames import is_vector
@@ -138,35 +138,41 @@ def detour(frm: np.ndarray, to: np.ndarray, centres: np.ndarray, radii: np.ndarr
     way = to - frm
     dist = np.linalg.norm(way, axis=1)
     first = _unit(way)
-    last = first.copy()
-    length = dist.copy()
-    for k in range(centres.shape[1]):
-        c, r = centres[:, k], radii[:, k]
-        rel, end = frm - c, np.linalg.norm(to - c, axis=1)
-        s = np.clip(-np.sum(rel * way, 1) / np.maximum(dist ** 2, 1e-12), 0.0, 1.0)
-        near = rel + s[:, None] * way
-        d0 = np.maximum(np.linalg.norm(rel, axis=1), r)
-        # Only a way that comes nearer the centre than it starts, into the disc, goes round.
-        hit = (np.sum(near * near, 1) < r * r) & (s > 1e-9) & (end > r)
-        if not hit.any():
-            continue
-        u0, u1 = _unit(rel), _unit(to - c)
-        apart = np.arccos(np.clip(np.sum(u0 * u1, 1), -1.0, 1.0))
-        a0 = np.arccos(np.minimum(r / np.maximum(d0, 1e-12), 1.0))
-        a1 = np.arccos(np.minimum(r / np.maximum(end, 1e-12), 1.0))
-        around = (np.sqrt(np.maximum(d0 ** 2 - r ** 2, 0.0))
-                  + np.sqrt(np.maximum(end ** 2 - r ** 2, 0.0))
-                  + r * np.maximum(apart - a0 - a1, 0.0))
-        longer = hit & (around > length)
-        side = np.where(u0[:, 0] * u1[:, 1] - u0[:, 1] * u1[:, 0] >= 0, 1.0, -1.0)
-        touch = c + r[:, None] * _turned(u0, side * a0)
-        tangent = np.stack([-side * u0[:, 1], side * u0[:, 0]], 1)
-        start = np.where((d0 <= r * (1 + 1e-9))[:, None], tangent, _unit(touch - frm))
-        leave = c + r[:, None] * _turned(u1, -side * a1)
-        length = np.where(longer, around, length)
-        first = np.where(longer[:, None], start, first)
-        last = np.where(longer[:, None], _unit(to - leave), last)
-    return length, first, last
+    if centres.shape[1] == 0:
+        return dist, first, first.copy()
+    rel = frm[:, None] - centres
+    end = np.linalg.norm(to[:, None] - centres, axis=2)
+    s = np.clip(-np.einsum("mkd,md->mk", rel, way) / np.maximum(dist ** 2, 1e-12)[:, None],
+                0.0, 1.0)
+    near = rel + s[..., None] * way[:, None]
+    d0 = np.maximum(np.linalg.norm(rel, axis=2), radii)
+    # Only a way that comes nearer the centre than it starts, into the disc, goes round.
+    hit = (np.einsum("mkd,mkd->mk", near, near) < radii ** 2) & (s > 1e-9) & (end > radii)
+    if not hit.any():
+        return dist, first, first.copy()
+    u0 = _unit(rel)
+    u1 = _unit(to[:, None] - centres)
+    apart = np.arccos(np.clip(np.einsum("mkd,mkd->mk", u0, u1), -1.0, 1.0))
+    a0 = np.arccos(np.minimum(radii / np.maximum(d0, 1e-12), 1.0))
+    a1 = np.arccos(np.minimum(radii / np.maximum(end, 1e-12), 1.0))
+    around = (np.sqrt(np.maximum(d0 ** 2 - radii ** 2, 0.0))
+              + np.sqrt(np.maximum(end ** 2 - radii ** 2, 0.0))
+              + radii * np.maximum(apart - a0 - a1, 0.0))
+    around = np.where(hit, around, -np.inf)
+    k = np.argmax(around, axis=1)
+    rows = np.arange(frm.shape[0])
+    longest = around[rows, k]
+    longer = longest > dist
+    c, r, u0k, u1k = centres[rows, k], radii[rows, k], u0[rows, k], u1[rows, k]
+    a0k, a1k, d0k = a0[rows, k], a1[rows, k], d0[rows, k]
+    side = np.where(u0k[:, 0] * u1k[:, 1] - u0k[:, 1] * u1k[:, 0] >= 0, 1.0, -1.0)
+    touch = c + r[:, None] * _turned(u0k, side * a0k)
+    tangent = np.stack([-side * u0k[:, 1], side * u0k[:, 0]], 1)
+    start = np.where((d0k <= r * (1 + 1e-9))[:, None], tangent, _unit(touch - frm))
+    leave = c + r[:, None] * _turned(u1k, -side * a1k)
+    length = np.where(longer, longest, dist)
+    return (length, np.where(longer[:, None], start, first),
+            np.where(longer[:, None], _unit(to - leave), first))
 
 
 class Controller:
@@ -175,16 +181,19 @@ class Controller:
     model, by the level's input space name — only for evaluation (`evaluation.exact`)."""
 
     def __init__(self, hierarchy: Hierarchy, reader: SpaceReader, config: LearnerConfig,
-                 controller: ControllerConfig | None = None):
+                 planner: PlannerConfig | None = None):
         self.h = hierarchy
         self.reader = reader
         self.config = config
-        self.pc = ControllerConfig() if controller is None else controller
+        self.pc = PlannerConfig() if planner is None else planner
         axis = np.linspace(-1.0, 1.0, self.pc.commands)
         axis = np.sign(axis) * np.abs(axis) ** 1.5  # finer near standing still
         grid = np.stack(np.meshgrid(axis, axis, indexing="ij"), -1).reshape(-1, 2)
         self.commands = grid[np.linalg.norm(grid, axis=1) > 1e-9]
         """The primitive actions the search tries (a grid over the action space)."""
+        self._fine = float(np.min(np.abs(axis[np.abs(axis) > 1e-9])))
+        """The finest command's share of a full one: states nearer than half of it (in
+        actions) are one state to the learned estimates (`_raised`)."""
         self.observer: Callable[[Decision], None] | None = None
         """Handed each action's `Decision` (evaluation records them)."""
         self.stand_ins: dict[str, Callable[[np.ndarray, np.ndarray, np.ndarray], np.ndarray]] = {}
@@ -250,22 +259,34 @@ class Controller:
 
     def chain(self, aff: Affordance, binding: Binding) -> tuple[Level, ...] | None:
         """The levels from `aff` down to an affordance of the primitive action, each
-        driving the input of the one above (most competent first, none twice); None when
-        some input has no driver with data."""
-        levels: list[Level] = []
-        while True:
-            levels.append(self._level(aff, binding))
-            if aff.input is ACTION:
-                return tuple(levels)
-            space = aff.input
-            if space.role is Role.TOOL:
-                binding = Binding(target=binding.tool, avoid=binding.target)
-            used = {lv.affordance.id for lv in levels}
-            drivers = [a for a in self.h.controllers(space) if a.id not in used
-                       and a.model.n >= 2 and (binding.tool >= 0 or not a.has_tool)]
-            if not drivers:
-                return None
-            aff = drivers[0]
+        driving the input of the one above (none twice); None when some input has no driver
+        with data. Drivers are tried most competent first, and the first chain that can
+        bring about every relation its levels act from (both entities of each moved by the
+        chain) is taken, else the first found: an affordance of the action on a body that
+        acts only beside the robot leaves no level to bring the robot there."""
+        return self._chain((), aff, binding)
+
+    def _chain(self, above: tuple[Level, ...], aff: Affordance, binding: Binding
+               ) -> tuple[Level, ...] | None:
+        levels = (*above, self._level(aff, binding))
+        if aff.input is ACTION:
+            return levels
+        space = aff.input
+        if space.role is Role.TOOL:
+            binding = Binding(target=binding.tool, avoid=binding.target)
+        used = {lv.affordance.id for lv in levels}
+        found = None
+        for driver in self.h.controllers(space):
+            if (driver.id in used or driver.model.n < 2
+                    or (binding.tool < 0 and driver.has_tool)):
+                continue
+            chain = self._chain(levels, driver, binding)
+            if chain is None:
+                continue
+            if _complete(chain):
+                return chain
+            found = found or chain
+        return found
 
     # ------------------------------------------------------------------ the chain
     def _level(self, aff: Affordance, b: Binding) -> Level:
@@ -313,17 +334,17 @@ class Controller:
                 c = self._contexts(aff, obs[None], lv.binding)[0]
                 delta = np.array([step, 0.0])
                 driven = np.array([sl == lv.relation for sl in context_slices(aff)])
-                need = needed_context(aff, delta, c, driven, zero_eps=self.config.zero_eps,
-                                      k=2 * self.config.k_inverse,
-                                      support=self.pc.context_support,
-                                      agreement=self.pc.agreement)
+                need, x = needed_context(aff, delta, c, driven,
+                                         zero_eps=self.config.zero_eps,
+                                         k=2 * self.config.k_inverse,
+                                         support=self.pc.context_support,
+                                         agreement=self.pc.agreement)
                 place = need[lv.relation]
                 contact = self.reader.relation_offset
                 if contact is not None:
                     # Bodies act on each other in contact: the place is the relation's
                     # bearing at contact (the rows' lengths tell where approaches began).
                     place = place * (contact / max(float(np.linalg.norm(place)), 1e-9))
-                x = aff.model.infer(delta, need).x
             places.append(place)
             inputs.append(x)
         return _Plan(levels, pursuit.goal, steps, turn, places, inputs)
@@ -437,7 +458,7 @@ class Controller:
         # What the movers below must do weighs as much as the step it serves: to move the
         # goal entity less than a step, a mover need not be exactly in place.
         share = np.clip(length / steps[0], 0.0, 1.0)
-        if top.mover < 0:
+        if top.mover < 0 and top.affordance.output.prop is Property.POSITION:
             cost = cost + share * self._turns(arr, plan, top.moved, u)
         for i, lv in enumerate(levels[:-1]):
             if lv.relation is None or plan.places[i] is None or not is_vector(lv.affordance.output):
@@ -538,7 +559,7 @@ class Controller:
 
     def _raised(self, arr: np.ndarray, plan: _Plan, pursuit: Pursuit) -> np.ndarray:
         """What the pursuit learned the estimate falls short by at each observation of
-        `arr`: the most of the states it acted from within half an action of it."""
+        `arr`: the most of the states it acted from within half the finest command of it."""
         if not pursuit.seen:
             return np.zeros(arr.shape[0])
         key, seen = self._key(arr, plan), np.stack(pursuit.seen)
@@ -546,8 +567,17 @@ class Controller:
         if np.isfinite(plan.turn):
             diff[..., -1] = (diff[..., -1] + np.pi / plan.turn) % (2 * np.pi / plan.turn) \
                 - np.pi / plan.turn
-        near = np.max(np.abs(diff), axis=2) <= 0.5
+        near = np.max(np.abs(diff), axis=2) <= self._fine / 2
         return np.max(np.where(near, np.asarray(pursuit.raised)[None, :], 0.0), axis=1)
+
+
+def _complete(levels: tuple[Level, ...]) -> bool:
+    """Whether the chain moves both entities of every relation its levels act from."""
+    moved = {lv.moved for lv in levels}
+    return all(_entity(space.role, lv.binding) in moved
+               and _entity(space.relative_to, lv.binding) in moved
+               for lv in levels for space in lv.affordance.contexts
+               if space.relative_to is not None)
 
 
 def _entity(role: Role, b: Binding) -> int:

@@ -16,7 +16,7 @@ from dataclasses import dataclass, field, replace
 
 import numpy as np
 
-from hadim_cli.config import ControllerConfig, LearnerConfig, PlannerConfig
+from hadim_cli.config import LearnerConfig, PlannerConfig
 from hadim_cli.learner.adaptation import Adaptation
 from hadim_cli.learner.affordance import Affordance, Fitter, output_bounds
 from hadim_cli.learner.controller import Controller
@@ -24,7 +24,6 @@ from hadim_cli.learner.dataset import Dataset
 from hadim_cli.learner.goals import Actuator, Binding
 from hadim_cli.learner.hierarchy import Event, Hierarchy
 from hadim_cli.learner.interest import select_index
-from hadim_cli.learner.planner import Planner
 from hadim_cli.learner.spaces import ACTION, Property, Role, RoleSpace, SpaceReader
 from hadim_cli.world.layout import ObservationLayout
 
@@ -43,11 +42,11 @@ class Fallback(enum.StrEnum):
     GOAL_NO_OBJECT = "goal-no-object"
     """Goal babbling: no object for the affordance's roles (p_A accepts none, no tool)."""
     GOAL_NO_PLAN = "goal-no-plan"
-    """Goal babbling: the planner executed no action towards the goal."""
+    """Goal babbling: the controller executed no action towards the goal."""
     RANDOM_NO_OBJECT = "random-no-object"
     """A random controllable value: no object for its controller's roles."""
     RANDOM_NO_PLAN = "random-no-plan"
-    """A random controllable value: the planner executed no action towards it."""
+    """A random controllable value: the controller executed no action towards it."""
 
 
 @dataclass(frozen=True)
@@ -87,8 +86,7 @@ class Learner:
     """D, H and the machinery acting on them; knows nothing of the world but its layout."""
 
     def __init__(self, config: LearnerConfig, layout: ObservationLayout,
-                 planner: PlannerConfig | None = None,
-                 controller: ControllerConfig | None = None):
+                 planner: PlannerConfig | None = None):
         self.config = config
         self.layout = layout
         self.reader = SpaceReader(
@@ -97,23 +95,14 @@ class Learner:
         self.hierarchy = Hierarchy()
         self.fitter = Fitter(self.dataset, self.reader, config)
         self.adaptation = Adaptation(self.hierarchy, self.fitter, config)
-        self._planner_config = planner
-        self.planner: Planner | Controller
-        """The controller that turns goals into primitive actions (`controller.kind`)."""
-        self.use_controller(ControllerConfig() if controller is None else controller)
+        self.controller = Controller(self.hierarchy, self.reader, config,
+                                     PlannerConfig() if planner is None else planner)
+        """Turns goals into primitive actions (D and H are data; the controller is code)."""
         self.learning_episodes = 0
 
     @property
     def iteration(self) -> int:
         return len(self.dataset)
-
-    def use_controller(self, controller: ControllerConfig) -> None:
-        """Turn goals into actions with the controller `controller.kind` names from now on
-        (D and H are data; the controller is code)."""
-        self.planner = (Controller(self.hierarchy, self.reader, self.config, controller)
-                        if controller.kind == "search"
-                        else Planner(self.hierarchy, self.reader, self.config,
-                                     self._planner_config))
 
     # ------------------------------------------------------------------ object selection
     def accepted_objects(self, aff: Affordance, obs: np.ndarray) -> np.ndarray:
@@ -216,7 +205,7 @@ class Learner:
             Adapt H to the episode's data    (Algorithm 2)
 
         Fallbacks are explicit and recorded (`LearningEpisode.fallbacks`): goal babbling with
-        no object to bind or nothing the planner could do becomes a random controllable; a
+        no object to bind or nothing the controller could do becomes a random controllable; a
         random controllable that cannot be reached becomes one random action.
         """
         start = self.iteration
@@ -261,7 +250,7 @@ class Learner:
         salient = self.salient_goal(aff, binding, actuator.obs, rng)
         if salient is not None:
             goal = salient
-        attempt = self.planner.reach(aff, binding, goal, actuator, self.config.goal_budget)
+        attempt = self.controller.reach(aff, binding, goal, actuator, self.config.goal_budget)
         if attempt.actions == 0:
             return self._random_controllable(actuator, rng).after(Fallback.GOAL_NO_PLAN)
         if not self.config.paper_interest:  # (the paper's maps learn from every outcome)
@@ -294,7 +283,7 @@ class Learner:
         if goal is None:
             low, high = output_bounds(space, self.reader)
             goal = rng.uniform(low, high)
-        attempt = self.planner.reach(aff, binding, goal, actuator, self.config.goal_budget)
+        attempt = self.controller.reach(aff, binding, goal, actuator, self.config.goal_budget)
         if attempt.actions == 0:
             return self._random_action(actuator, rng, Fallback.RANDOM_NO_PLAN)
         return Explored(Mode.RANDOM_CONTROLLABLE, aff.id, goal, attempt.competence)

@@ -31,17 +31,21 @@ def context_slices(aff: Affordance) -> list[slice]:
 
 def needed_context(aff: Affordance, delta: np.ndarray, c: np.ndarray, driven: np.ndarray,
                    *, zero_eps: float, k: int, support: float, agreement: float
-                   ) -> np.ndarray:
+                   ) -> tuple[np.ndarray, np.ndarray | None]:
     """`c` with the columns of the context spaces `driven` (a mask over `aff.contexts`)
-    replaced by the values from which `aff` usually produces the outcome `delta`.
+    replaced by the values from which `aff` usually produces the outcome `delta`, and the
+    input those rows moved by (fitted like the place; None when the input is no 2-D vector
+    of the room, e.g. the primitive action).
 
     `k`: rows voted over; `support`: relations further apart than this (in the model's
     scale) vote apart; `agreement`: rows within this of the densest relation are fitted."""
-    _, _, ctx, y = seen_where(aff.model, zero_eps, along=delta)
+    _, x, ctx, y = seen_where(aff.model, zero_eps, along=delta)
+    moves = is_vector(aff.input) and x.shape[1] == 2
     copies = 1
     mirrored = _mirrored(aff, ctx, y, delta)
     if mirrored is not None:
-        ctx, y = mirrored
+        ctx, y, flip = mirrored
+        x = np.concatenate([x, x @ flip]) if moves else x
         copies = 2
     scale = aff.model.scales().per_column()
     x_cols = aff.model.dx
@@ -60,7 +64,9 @@ def needed_context(aff: Affordance, delta: np.ndarray, c: np.ndarray, driven: np
     weights = closeness * (d2[best] <= agreement ** 2)
     needed = c.copy()
     needed[free] = _fit_at((y[near] - delta) / y_scale, ctx[near][:, free], weights)
-    return needed
+    if not moves or x.shape[0] != y.shape[0]:
+        return needed, None
+    return needed, _fit_at((y[near] - delta) / y_scale, x[near], weights)
 
 
 def _fit_at(dy: np.ndarray, rel: np.ndarray, w: np.ndarray) -> np.ndarray:
@@ -76,9 +82,9 @@ def _fit_at(dy: np.ndarray, rel: np.ndarray, w: np.ndarray) -> np.ndarray:
 
 
 def _mirrored(aff: Affordance, ctx: np.ndarray, y: np.ndarray, delta: np.ndarray
-              ) -> tuple[np.ndarray, np.ndarray] | None:
+              ) -> tuple[np.ndarray, np.ndarray, np.ndarray] | None:
     """The rows followed by their mirror images across the line of `delta` (vectors
-    reflected, sizes kept); None when a context has no mirror image (an absolute position,
+    reflected, sizes kept), with the reflection; None when a context has no mirror image (an absolute position,
     the LIDAR) or the outcome is no 2-D vector."""
     length = float(np.linalg.norm(delta))
     if delta.shape[0] != 2 or length < 1e-12 or not is_vector(aff.output):
@@ -93,4 +99,4 @@ def _mirrored(aff: Affordance, ctx: np.ndarray, y: np.ndarray, delta: np.ndarray
     for space, sl in zip(aff.contexts, context_slices(aff), strict=True):
         if turns_with_scene(space):
             image[:, sl] = ctx[:, sl] @ flip
-    return np.concatenate([ctx, image]), np.concatenate([y, y @ flip])
+    return np.concatenate([ctx, image]), np.concatenate([y, y @ flip]), flip

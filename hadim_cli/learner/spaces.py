@@ -58,6 +58,8 @@ class RoleSpace:
 
 
 ACTION = RoleSpace(Role.ACTION)
+ROBOT_POSITION = RoleSpace(Role.ROBOT, Property.POSITION)
+ROBOT_HEADING = RoleSpace(Role.ROBOT, Property.HEADING)
 
 
 def parse_space(name: str) -> RoleSpace:

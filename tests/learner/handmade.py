@@ -148,7 +148,7 @@ def world_learner(config: Config, world, scene, n_free: int = 300, n_push: int =
     """A learner whose H holds the robot's motion (`action → robot.position` and
     `action → robot.heading`, the heading as context) and its push of an object
     (`robot.position → target.position | target-robot`), fitted on `world_rows`."""
-    learner = Learner(config.learner, world.layout, config.planner, config.controller)
+    learner = Learner(config.learner, world.layout, config.planner)
     rng = np.random.default_rng(0)
     free, push = world_rows(learner, world, scene, rng, n_free, n_push)
     unbound = np.full(free.size, -1, dtype=np.int64)

@@ -1,4 +1,4 @@
-"""The search controller through its public contract (`Controller.act`, `Controller.reach`),
+"""The controller through its public contract (`Controller.act`, `Controller.reach`),
 on models fitted on rows of the real pymunk World (`handmade.world_learner`): reach a
 place, go round a body in the way without touching it, push an object along a line, give
 up within a bound when nothing can be reached; and `detour`'s length against the geometry
@@ -12,7 +12,7 @@ import numpy as np
 import pytest
 from handmade import world_learner
 
-from hadim_cli.config import ControllerConfig, load_config
+from hadim_cli.config import load_config
 from hadim_cli.evaluation.runner import evaluate
 from hadim_cli.evaluation.tasks import load_task
 from hadim_cli.learner.controller import Controller, detour
@@ -26,10 +26,10 @@ ROBOT_POSITION = RoleSpace(Role.ROBOT, Property.POSITION)
 
 @pytest.fixture(scope="module")
 def rig():
-    config = dataclasses.replace(load_config(), controller=ControllerConfig(kind="search"))
+    config = load_config()
     world = World(config.world)
     learner = world_learner(config, world, TASK.scene)
-    assert isinstance(learner.planner, Controller)
+    assert isinstance(learner.controller, Controller)
     return config, world, learner
 
 
@@ -56,7 +56,7 @@ def _drive(world, controller, aff, binding, goal, budget):
 @pytest.mark.parametrize("goal", [(-0.6, 0.5), (0.0, -0.7), (-0.8, -0.3)])
 def test_the_robot_reaches_a_place(rig, goal):
     _, world, learner = rig
-    seen, _ = _drive(world, learner.planner, _mover(learner), Binding(), np.array(goal), 30)
+    seen, _ = _drive(world, learner.controller, _mover(learner), Binding(), np.array(goal), 30)
     final = learner.reader.entity_position(seen[-1], 0)
     assert np.linalg.norm(final - goal) <= 0.05, final
     # About the distance at full speed plus two turns.
@@ -68,7 +68,7 @@ def test_the_robot_goes_round_a_body_in_its_way(rig, avoid):
     """Bodies may touch (never overlap); the one a binding forbids is never touched."""
     _, world, learner = rig
     goal = np.array([0.9, 0.05])  # behind obj1, which stands at (0.45, 0) on the way
-    seen, touched = _drive(world, learner.planner, _mover(learner), Binding(avoid=avoid),
+    seen, touched = _drive(world, learner.controller, _mover(learner), Binding(avoid=avoid),
                            goal, 40)
     final = learner.reader.entity_position(seen[-1], 0)
     assert np.linalg.norm(final - goal) <= 0.06, final
@@ -90,7 +90,7 @@ def test_the_robot_pushes_an_object_along_a_line(rig):
 
 def test_a_place_beyond_the_walls_is_given_up_within_its_budget(rig):
     _, world, learner = rig
-    controller = learner.planner
+    controller = learner.controller
     obs = world.reset(scene=TASK.scene)
     budget = 60
     pursuit = controller.pursue(_mover(learner), Binding(), np.array([-3.0, 0.0]), obs, budget)
@@ -110,7 +110,7 @@ def test_the_same_observation_gives_the_same_action(rig):
     obs = world.reset(scene=TASK.scene)
     goal = np.array(TASK.points[2])
     push = next(a for a in learner.hierarchy if a.input == ROBOT_POSITION)
-    first = [learner.planner.act(obs, learner.planner.pursue(push, Binding(target=1), goal,
+    first = [learner.controller.act(obs, learner.controller.pursue(push, Binding(target=1), goal,
                                                               obs)) for _ in range(2)]
     assert first[0] is not None and np.array_equal(first[0], first[1])
 
@@ -132,3 +132,11 @@ def test_a_disc_off_the_way_or_holding_its_end_is_no_obstacle():
     centres = np.array([[[0.0, 2.0]], [[0.0, 0.0]]])
     length, _, _ = detour(frm, to, centres, np.array([[0.5], [0.5]]))
     assert length == pytest.approx([2.0, 1.1])
+
+
+def test_the_robot_reaches_every_pose_of_the_reach_pose_task(rig):
+    """Position, then heading (through `act`, by the learned `action → robot.heading`): each
+    pose's error — the mean of the position's and the heading's shares — is small."""
+    config, _, learner = rig
+    result = evaluate(learner, config.world, load_task("reach-pose"))
+    assert all(p.error <= 0.15 for p in result.points), [round(p.error, 3) for p in result.points]
