@@ -84,8 +84,8 @@ def _fit_at(dy: np.ndarray, rel: np.ndarray, w: np.ndarray) -> np.ndarray:
 def _mirrored(aff: Affordance, ctx: np.ndarray, y: np.ndarray, delta: np.ndarray
               ) -> tuple[np.ndarray, np.ndarray, np.ndarray] | None:
     """The rows followed by their mirror images across the line of `delta` (vectors
-    reflected, sizes kept), with the reflection; None when a context has no mirror image (an absolute position,
-    the LIDAR) or the outcome is no 2-D vector."""
+    reflected, sizes kept), with the reflection; None when a context has no mirror image
+    (an absolute position, the LIDAR) or the outcome is no 2-D vector."""
     length = float(np.linalg.norm(delta))
     if delta.shape[0] != 2 or length < 1e-12 or not is_vector(aff.output):
         return None
