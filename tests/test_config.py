@@ -56,8 +56,9 @@ def test_file_then_overrides(tmp_path):
         ("world.object_radius_max=0.01", "world.object_radius_max"),
         ("world.random_heading=1", "must be true or false"),
         ("world.lidar_range=nan", "must be finite"),
-        ("planner.convoy_turn=200", "'planner.convoy_turn' = 200.0 is impossible"),
-        ("planner.convoy_drift_cost=-1", "'planner.convoy_drift_cost' = -1.0 is impossible"),
+        ("planner.commands=1", "'planner.commands' = 1 is impossible"),
+        ("planner.clearance=-0.1", "'planner.clearance' = -0.1 is impossible"),
+        ("planner.convoy=true", "unknown config key 'planner.convoy'"),
         ("world", "section.key=value"),
     ],
 )
@@ -112,30 +113,20 @@ def test_a_run_stored_before_tools_were_chosen_by_their_chain_keeps_its_objects(
         assert getattr(stored_config(values).learner, key) is False
 
 
-def test_a_run_stored_before_trips_were_searched_keeps_its_waypoints():
-    """`planner.route_search`, `spare_stagings`, `pusher_contacts`, `skip_idle_repeats`,
-    `drifting_places`, `face_places` and `mirrored_relations` (on since 2026-11-25): a stored
-    config lacking one restores what it was trained with (trips by waypoints; every remainder
-    chased by the tool level; every driven relation brought to contact; an action that moved
-    nothing repeated; a place that drifts never stalls; a trip ended at its place before its
-    heading; a place fitted over the rows as stored); `convoy` (on since 2026-11-28) likewise
-    (the tool pursuing the line behind the target, its pusher by the inverse answers), and
-    `convoy_facing` and `short_subgoals` (on since 2026-11-28, later: the robot's convoy push
-    a place alone; a sub-goal's slack a share of a step whatever its length), `convoy_plan`
-    (the convoy's straight step), `stall_trips` and `room_places` (every small correction of
-    a sub-goal spared; a place beyond a wall driven toward), `solid_bodies` (a place fitted
-    inside another body stands), `convoy_trailing` (a tool short of its place drifts by
-    that distance) and `convoy_goes_on` (every drift past `realign` re-stages); one holding it
-    keeps it."""
-    for key in ("route_search", "spare_stagings", "pusher_contacts", "skip_idle_repeats",
-                "drifting_places", "face_places", "mirrored_relations", "convoy",
-                "convoy_facing", "short_subgoals", "convoy_plan", "stall_trips",
-                "room_places", "solid_bodies", "convoy_trailing", "convoy_goes_on"):
-        values = Config().to_dict()
-        assert values["planner"][key] is True
-        assert getattr(stored_config(values).planner, key) is True
-        del values["planner"][key]
-        assert getattr(stored_config(values).planner, key) is False
+def test_a_stored_run_s_controller_keys_are_the_installed_code_s():
+    """A run stored by a version with other controller constants (the rule-based planner's
+    `[planner]` keys, the search variant's `[controller]` section) restores with the
+    installed controller's; its learner's keys are kept as stored."""
+    values = Config().to_dict()
+    values["planner"] = {"convoy": True, "navigation": True, "route_beam": 24, "beam": 5}
+    values["controller"] = {"kind": "search", "stall": 8}
+    values["learner"]["goal_budget"] = 33
+    config = stored_config(values)
+    assert config.planner == dataclasses.replace(Config().planner, beam=5)
+    assert config.learner.goal_budget == 33
+    values["learner"]["no_such_key"] = 1
+    with pytest.raises(ConfigError, match="learner.no_such_key"):
+        stored_config(values)
 
 
 def test_missing_or_broken_file(tmp_path):
@@ -162,12 +153,6 @@ def test_cli_show_json(runner):
     assert json.loads(result.output)["world"]["n_red"] == 2
 
 
-# The [planner] section is being replaced (its keys shrink to a handful): it is compared with
-# whatever PlannerConfig holds once that lands; until then only its keys that the file lists
-# are checked to be PlannerConfig's. Every other section lists every field, no more, no less.
-_PARTIAL_SECTIONS = {"planner"}
-
-
 def test_default_toml_lists_every_key_of_every_section():
     """configs/default.toml is the reference a user reads and copies: a key missing from it
     silently falls back to the dataclass's default, which `load_config() == Config()` cannot
@@ -182,5 +167,4 @@ def test_default_toml_lists_every_key_of_every_section():
         fields = {f.name for f in dataclasses.fields(type(getattr(Config(), section.name)))}
         keys = set(written[section.name])
         assert keys <= fields, f"[{section.name}] keys no field has: {sorted(keys - fields)}"
-        if section.name not in _PARTIAL_SECTIONS:
-            assert keys == fields, f"[{section.name}] lacks {sorted(fields - keys)}"
+        assert keys == fields, f"[{section.name}] lacks {sorted(fields - keys)}"

@@ -1,4 +1,4 @@
-"""Diagnostics of the planner's levels: planner settings in the config, per-point figures,
+"""Diagnostics of the controller's levels: its settings in the config, per-point figures,
 pose and line tasks, exact levels, and animations of evaluation episodes."""
 
 from __future__ import annotations
@@ -16,8 +16,7 @@ from hadim_cli.evaluation.metric import heading_error
 from hadim_cli.evaluation.tasks import load_task, load_task_file
 
 ITERATIONS = 400
-"""Long enough for seed 2 to have a push affordance (its first at 369 iterations with the
-default of 2026-11-28; at 126 before `short_subgoals`)."""
+"""Long enough for seed 2 to have a push affordance."""
 
 
 def invoke(runner, *args: object):
@@ -30,30 +29,27 @@ def store(tmp_path_factory) -> Path:
 
     path = tmp_path_factory.mktemp("diag") / "s.sqlite"
     result = invoke(CliRunner(), "train", "--iterations", ITERATIONS, "--eval-every", 0,
-                    "--seed", 2, "--store", path, "--set", "planner.navigation=true",
-                    "--set", "planner.avoid_margin=0.07")
+                    "--seed", 2, "--store", path, "--set", "planner.beam=6")
     assert result.exit_code == 0, result.stderr
     return path
 
 
-def test_planner_settings_reach_the_planner_and_are_stored(runner, store):
+def test_planner_settings_reach_the_controller_and_are_stored(runner, store):
     from hadim_cli import runs
 
     shown = json.loads(invoke(runner, "runs", "show", "run-1", "--json", "--store", store).stdout)
-    assert shown["config"]["planner"]["navigation"] is True
-    assert shown["config"]["planner"]["avoid_margin"] == 0.07
+    assert shown["config"]["planner"]["beam"] == 6
     with runs.open_store(str(store), create=False) as st:
         session = runs.restore_session(st, st.get_run("run-1"))
-    pc = session.learner.planner.pc
-    assert pc.navigation is True and pc.avoid_margin == 0.07
-    assert session.learner.planner.navigator.config is pc
+    assert session.learner.controller.pc == session.config.planner
+    assert session.config.planner.beam == 6
 
 
 def test_a_bad_planner_setting_is_one_line(runner, tmp_path):
     result = invoke(runner, "train", "--iterations", 100, "--store", tmp_path / "x.sqlite",
-                    "--set", "planner.navigation_grid=1")
+                    "--set", "planner.commands=1")
     assert result.exit_code == 2
-    assert result.stderr.strip().startswith("error: ") and "planner.navigation_grid" in \
+    assert result.stderr.strip().startswith("error: ") and "planner.commands" in \
         result.stderr
     assert not (tmp_path / "x.sqlite").exists()
 
@@ -70,9 +66,9 @@ def test_points_report_actions_path_trips_and_line_deviation(runner, store):
     assert any(p["robot_path"] > 0 for p in points)
 
 
-def test_points_count_their_actions_by_what_the_planner_pursued(store):
-    """`pursuits`: every action of a point counted once, under the chain of pursuits the
-    planner was in when it chose it (what an animation shows, step by step)."""
+def test_points_count_their_actions_by_what_the_controller_served(store):
+    """`pursuits`: every action of a point counted once, under what the controller served
+    when it chose it (what an animation shows, step by step)."""
     from collections import Counter
 
     from hadim_cli import runs
@@ -86,11 +82,13 @@ def test_points_count_their_actions_by_what_the_planner_pursued(store):
     assert [p.pursuits for p in plain.points] == [p.pursuits for p in result.points]
     for p, rec in zip(result.points, result.recordings, strict=True):
         assert sum(p.pursuits.values()) == p.actions == len(rec.steps)
-        seen = Counter(" / ".join(s.labels[1:]) or s.labels[0] for s in rec.steps)
+        seen = Counter(s.labels[0] for s in rec.steps)
         assert p.pursuits == dict(seen)
         assert list(p.pursuits.values()) == sorted(p.pursuits.values(), reverse=True)
-    # The push levels below the goal: the robot driving to a place, then pushing.
-    assert any("navigate robot.position" in k for p in result.points for k in p.pursuits)
+    # The robot driving to its place behind the object, and the push itself.
+    labels = {k for p in result.points for k in p.pursuits}
+    assert any(k.startswith("place robot for A") for k in labels)
+    assert any(k.endswith("target.position") and not k.startswith("place") for k in labels)
 
 
 def test_the_pose_task_scores_heading_and_position():
@@ -133,20 +131,24 @@ def test_an_exact_level_is_a_diagnostic_not_a_stored_score(runner, store):
 
 
 def test_the_exact_level_changes_nothing_of_the_learner(store):
+    """Within the block the controller imagines the named levels by the room's physics
+    (other scores), afterwards as before; the learner is never changed."""
     from hadim_cli import runs
     from hadim_cli.evaluation.exact import exact_levels
+    from hadim_cli.evaluation.runner import evaluate
 
     with runs.open_store(str(store), create=False) as st:
         session = runs.restore_session(st, st.get_run("run-1"))
-    planner = session.learner.planner
-    before = (planner.pc, planner.navigator, planner.pusher, planner.tool_guide)
-    with exact_levels(session.learner, session.config.world, ("navigation",)):
-        assert planner.navigator.motion is not None
-        assert planner.pusher is None and planner.tool_guide is None
-    with exact_levels(session.learner, session.config.world, ("push", "tool")):
-        assert planner.pusher is not None and planner.tool_guide is not None
-        assert planner.navigator is before[1]
-    assert (planner.pc, planner.navigator, planner.pusher, planner.tool_guide) == before
+    task = load_task("push-object")
+    digest = session.learner.dataset.sha256()
+    before = evaluate(session.learner, session.config.world, task)
+    for levels in (("navigation",), ("push",), ("navigation", "push")):
+        with exact_levels(session.learner, session.config.world, levels):
+            exact = evaluate(session.learner, session.config.world, task)
+        assert [p.final for p in exact.points] != [p.final for p in before.points], levels
+    after = evaluate(session.learner, session.config.world, task)
+    assert after.points == before.points
+    assert session.learner.dataset.sha256() == digest
 
 
 def test_an_animation_is_written_and_the_same_run_draws_the_same_frames(runner, store,
@@ -165,7 +167,7 @@ def test_an_animation_is_written_and_the_same_run_draws_the_same_frames(runner, 
     rec = first.recordings[0]
     assert rec.observations.shape[0] == first.points[0].actions + 1
     assert len(rec.steps) == first.points[0].actions
-    assert all(step.labels for step in rec.steps)  # what the planner pursued, every action
+    assert all(step.labels for step in rec.steps)  # what the controller served, every action
     a = animate(first.recordings, session.world.layout, tmp_path / "a.gif", hold=2)
     b = animate(again.recordings, session.world.layout, tmp_path / "b.gif", hold=2)
     assert a.read_bytes() == b.read_bytes()
@@ -319,8 +321,9 @@ def test_the_first_push_through_a_tool_measures_the_chain_s_bend():
 
 
 def test_trip_starts_are_the_goal_s_remaining_share_when_each_trip_began(store):
-    """`trip_starts`: one share per trip, read off the observation the trip began from: 1.0
-    before the object moved, less once it was on its way."""
+    """`trips`: the stretches of actions serving a place (labels "place …"); `trip_starts`:
+    one share per trip, read off the observation before its first action: 1.0 before the
+    object moved, less once it was on its way."""
     from hadim_cli import runs
     from hadim_cli.evaluation.metric import remaining_share
     from hadim_cli.evaluation.runner import evaluate
@@ -328,32 +331,17 @@ def test_trip_starts_are_the_goal_s_remaining_share_when_each_trip_began(store):
     with runs.open_store(str(store), create=False) as st:
         session = runs.restore_session(st, st.get_run("run-1"))
     task = load_task("push-object")
-    seen = []
-    real = session.learner.planner._count_trip
-
-    def spy(starting, obs):
-        real(starting, obs)
-        if starting:
-            seen.append(obs.copy())
-
-    session.learner.planner._count_trip = spy
     result = evaluate(session.learner, session.config.world, task, record=True)
-    assert sum(p.trips for p in result.points) == len(seen) > 0
-    shares = [s for p in result.points for s in p.trip_starts]
-    assert len(shares) == len(seen)
     target = session.world.layout.entities.index(task.target)
-    starts = [np.asarray(p.start) for p, n in zip(result.points, (p.trips for p in result.points),
-                                                  strict=True) for _ in range(n)]
-    points = [p.target for p in result.points for _ in range(p.trips)]
-    want = [remaining_share(session.learner.reader.entity_position(o, target), s, pt)
-            for o, s, pt in zip(seen, starts, points, strict=True)]
-    assert shares == pytest.approx(want)
-    # Each trip began from an observation of its point's attempt, the one before the trip's
-    # first action: an action that served a placement.
-    recordings = [rec for rec, p in zip(result.recordings, result.points, strict=True)
-                  for _ in range(p.trips)]
-    for obs, rec in zip(seen, recordings, strict=True):
-        at = [j for j, o in enumerate(rec.observations[:-1]) if np.array_equal(o, obs)]
-        assert at, "a trip began from an observation the attempt never had"
-        assert any(label.startswith("place ") for label in rec.steps[at[0]].labels)
-    assert any(s == pytest.approx(1.0) for s in shares)
+    total = 0
+    for p, rec in zip(result.points, result.recordings, strict=True):
+        placing = [s.labels[0].startswith("place ") for s in rec.steps]
+        begins = [i for i, on in enumerate(placing) if on and (i == 0 or not placing[i - 1])]
+        assert p.trips == len(begins)
+        want = [remaining_share(session.learner.reader.entity_position(rec.observations[i],
+                                                                       target),
+                                p.start, p.target) for i in begins]
+        assert list(p.trip_starts) == pytest.approx(want)
+        total += p.trips
+    assert total > 0
+    assert any(s == pytest.approx(1.0) for p in result.points for s in p.trip_starts)

@@ -113,7 +113,7 @@ def test_a_tool_task_fails_every_point_the_robot_touches_the_target_in():
             actuator.act(np.array([1.0, 1.0]))
         return Attempt(1.0, 1.0, actuator.used)
 
-    learner.planner.reach = straight_ahead
+    learner.controller.reach = straight_ahead
     task = load_task("push-with-tool")
     direct = evaluate(learner, config.world, replace(task, target="obj2", tool=None,
                                                       affordance_input="robot.position"))
@@ -162,7 +162,7 @@ def test_each_point_is_scored_by_the_share_of_its_distance_left_and_the_task_by_
             actuator.act(np.array([1.0, 1.0]))
         return Attempt(1.0, 1.0, actuator.used)
 
-    learner.planner.reach = straight_ahead
+    learner.controller.reach = straight_ahead
     task = replace(load_task("move-robot"), points=((1.0, 0.0), (-0.5, 0.0), (0.8, 0.4)),
                    budget=4)
     result = evaluate(learner, config.world, task)

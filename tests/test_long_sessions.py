@@ -14,7 +14,7 @@ import pytest
 
 from hadim_cli import runs
 from hadim_cli.app import app
-from hadim_cli.config import LEGACY_DEFAULTS, load_config
+from hadim_cli.config import load_config
 from hadim_cli.session import Session
 from hadim_store import SCHEMA_VERSION, Store
 
@@ -153,17 +153,20 @@ def test_a_schema_1_store_opens_and_resumes_exactly(runner, tmp_path):
     assert con.execute("SELECT value FROM meta WHERE key = 'schema_version'").fetchone() == ("1",)
     con.close()
     assert show(runner, store, "run-1")["iterations"] == 100
-    ok(runner, "resume", "run-1", "--iterations", 200, "--eval-every", 0, "--store", store)
-    # The fixture's run was stored before some keys of config.LEGACY_DEFAULTS existed: it
-    # resumes with the values it trained with, so the fresh run is given the same.
-    stored = show(runner, store, "run-1")["config"]
-    legacy = [arg for section, keys in LEGACY_DEFAULTS.items() for key, value in keys.items()
-              if key not in stored.get(section, {})
-              for arg in ("--set", f"{section}.{key}={_toml(value)}")]
-    fresh = train(runner, store, 200, *legacy)
+    stored = show(runner, store, "run-1")["dataset_sha256"]
+    again = tmp_path / "again.sqlite"
+    shutil.copyfile(store, again)
+    # Resumed with the installed controller (the code that turns goals into actions; its D,
+    # H and models as stored): twice the same course, the stored 100 iterations kept.
+    for where in (store, again):
+        ok(runner, "resume", "run-1", "--iterations", 200, "--eval-every", 0, "--store", where)
     assert show(runner, store, "run-1")["dataset_sha256"] == \
-        show(runner, store, fresh)["dataset_sha256"]
-    assert affordances(runner, store, "run-1") == affordances(runner, store, fresh)
+        show(runner, again, "run-1")["dataset_sha256"]
+    assert affordances(runner, store, "run-1") == affordances(runner, again, "run-1")
+    from hadim_store import Store
+
+    with Store.open(store, create=False) as st:
+        assert st.dataset_sha256("run-1", upto_iteration=100) == stored
     con = sqlite3.connect(store)
     try:
         assert con.execute("SELECT value FROM meta WHERE key = 'schema_version'"

@@ -67,9 +67,11 @@ class Pursuit:
     start: float
     """The output's distance to the goal when the pursuit began."""
     budget: float = np.inf
-    """Actions it may take (given up once its estimate of actions to go exceeds those left)."""
+    """Actions it may take."""
     used: int = 0
     """Actions taken so far."""
+    first: float = np.inf
+    """Its estimate of actions to go before its first action."""
     seen: list[np.ndarray] = field(default_factory=list)
     """The states acted from (bodies' positions in steps, heading in turns: `_key`)."""
     raised: list[float] = field(default_factory=list)
@@ -218,7 +220,10 @@ class Controller:
 
     def act(self, obs: np.ndarray, pursuit: Pursuit) -> np.ndarray | None:
         """The next primitive action towards the pursuit's goal; None when the goal is
-        reached, the chain cannot act, or its estimated actions to go exceed those left."""
+        reached, the chain cannot act, or the pursuit has lost ground since it began (its
+        estimate of actions to go, raised by what it learned, above the first) and that
+        estimate exceeds the actions left: a goal beyond the budget is still pursued as far
+        as it goes."""
         aff, b = pursuit.affordance, pursuit.binding
         dist = float(np.linalg.norm(pursuit.goal - self._value(aff.output, obs, b)))
         if dist <= max(self.config.reach_tolerance * pursuit.start, self.config.zero_eps):
@@ -228,8 +233,12 @@ class Controller:
             return None
         now, gaps, label = self._to_go(obs[None], plan, trace=True)
         here = float(now[0]) + float(self._raised(obs[None], plan, pursuit)[0])
-        if here > pursuit.budget - pursuit.used:
-            return None  # not expected within the actions left
+        if pursuit.used >= pursuit.budget:
+            return None
+        if pursuit.used == 0:
+            pursuit.first = here
+        elif here > pursuit.budget - pursuit.used and here > pursuit.first:
+            return None  # lost ground since it began, and not expected within the actions left
         chosen = self._search(obs, plan, pursuit)
         if chosen is None:
             return None

@@ -387,7 +387,7 @@ def _planner_that_tries(room: Room, monkeypatch, actions: int = 1) -> list:
         tried.append((aff.id, np.asarray(goal).copy()))
         return Attempt(1.0, 0.5, actions)
 
-    monkeypatch.setattr(room.learner.planner, "reach", reach)
+    monkeypatch.setattr(room.learner.controller, "reach", reach)
     return tried
 
 

@@ -184,7 +184,7 @@ def test_goal_babbling_takes_salient_goals_for_objects(monkeypatch):
     tried = []
     monkeypatch.setattr(learner, "affordance_selection", lambda rng: aff)
     monkeypatch.setattr(learner, "select_binding", lambda a, o: Binding(target=1))
-    monkeypatch.setattr(learner.planner, "reach",
+    monkeypatch.setattr(learner.controller, "reach",
                         lambda a, b, goal, act, budget: tried.append(goal) or Attempt(1, 1, 1))
     actuator = SimpleNamespace(obs=obs)
     rng = np.random.default_rng(0)

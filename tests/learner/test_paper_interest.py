@@ -108,7 +108,7 @@ def test_every_learning_episode_updates_the_paper_maps_before_adaptation(paper, 
 
     monkeypatch.setattr(learner, "update_interest_maps", recording_update)
     monkeypatch.setattr(learner.adaptation, "run", recording_adapt)
-    monkeypatch.setattr(learner.planner, "reach", reach)
+    monkeypatch.setattr(learner.controller, "reach", reach)
     actuator = _RoomActuator(room, rng)
     episodes = [learner.learning_episode(actuator, rng) for _ in range(16)]
     modes = {e.mode for e in episodes}

@@ -68,12 +68,19 @@ def test_a_schema_2_store_from_before_alembic_upgrades_reads_and_resumes_exactly
     assert (one["dataset_sha256"], two["dataset_sha256"]) == (V2_RUN_1, V2_RUN_2)
     assert set(one["scores"]) == {"move-robot", "push-object", "push-with-tool"}
     # run-2 (a fork at 50: one full checkpoint) and run-1 (its checkpoint at 100 a delta on 50)
-    # continue from the upgraded store as one run: the same D at 100 and at 150.
-    ok(runner, "resume", "run-2", "--iterations", 150, *NO_EVAL, "--store", store)
-    ok(runner, "resume", "run-1", "--iterations", 150, *NO_EVAL, "--store", store)
-    with Store.open(store, create=False) as st:
-        assert st.dataset_sha256("run-2", upto_iteration=100) == V2_RUN_1
-        assert st.dataset_sha256("run-1") == st.dataset_sha256("run-2")
+    # continue from the upgraded store, with the installed controller (the code that turns
+    # goals into actions; D, H and the models are as stored), exactly: twice the same D.
+    again = tmp_path / "again.sqlite"
+    shutil.copyfile(store, again)
+    for where in (store, again):
+        ok(runner, "resume", "run-2", "--iterations", 150, *NO_EVAL, "--store", where)
+        ok(runner, "resume", "run-1", "--iterations", 150, *NO_EVAL, "--store", where)
+    with Store.open(store, create=False) as st, Store.open(again, create=False) as nd:
+        assert st.dataset_sha256("run-1", upto_iteration=100) == V2_RUN_1
+        assert st.dataset_sha256("run-2", upto_iteration=50) == \
+            st.dataset_sha256("run-1", upto_iteration=50)
+        for run in ("run-1", "run-2"):
+            assert st.dataset_sha256(run) == nd.dataset_sha256(run)
         assert st.checkpoint_iterations("run-1")[-1] == 150
 
 
