@@ -98,8 +98,9 @@ def test_resume_of_a_finished_run_says_so_and_how_to_go_further(store):
 # --------------------------------------------------------------------------- 2. fast refusals
 
 def test_refusals_and_h_need_no_learner(store, tmp_path):
-    """What does not need the learner never imports it (torch alone takes seconds): the
-    table of H, and the refusals of a finished run, a run in use, a target outside the room.
+    """What does not need the learner never imports it (torch alone takes seconds, its models
+    scipy): the table of H, and the refusals of a finished run, a run in use, a target
+    outside the room.
     docs/performance.md measures their times."""
     bad = tmp_path / "bad.toml"
     text = (ROOT / "configs" / "tasks" / "move-robot.toml").read_text()
@@ -117,7 +118,7 @@ def test_refusals_and_h_need_no_learner(store, tmp_path):
         "    except SystemExit:\n"
         "        pass\n"
         "    print('loaded:', 'torch' in sys.modules,\n"
-        "          'hadim_cli.learner.explorer' in sys.modules)\n")
+        "          'hadim_cli.learner.models' in sys.modules or 'scipy.spatial' in sys.modules)\n")
     owner = f"{os.uname().nodename}:{os.getpid()}"
     with Store.open(store, create=False) as st:
         st.acquire_lock("held", owner)  # held by this live process
