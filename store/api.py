@@ -721,6 +721,14 @@ class Store:
                 raise RunLocked(f"run {name!r} was taken over by another process meanwhile")
             return locking.lock_info(holder)
 
+    def refuse_if_locked(self, name: str) -> None:
+        """Raise :class:`RunLocked`, as :meth:`acquire_lock` would, if a live process holds the
+        run's lock; a free or stale lock passes (whoever writes next takes it). Writes nothing."""
+        with self.session_scope(write=False) as session:
+            holder = _holder(_run_row(session, name))
+        if holder is not None and self._stale(holder) is None:
+            raise RunLocked(f"run {name!r} is in use: {locking.describe(holder)}")
+
     def heartbeat(self, name: str, owner: str) -> None:
         """Refresh ``owner``'s lock; raises :class:`RunLocked` if ``owner`` no longer holds it."""
         with self.session_scope() as session:

@@ -21,7 +21,13 @@ from typing import Any
 
 from hadim_store import codecs, deltas, locking, migrations
 from hadim_store.errors import RunLocked, StoreError, unknown_run
-from hadim_store.records import Checkpoint, RunRecord, RunStatus, check_iteration
+from hadim_store.records import (
+    Checkpoint,
+    EpisodeRecord,
+    RunRecord,
+    RunStatus,
+    check_iteration,
+)
 
 SQLITE_HEADER = b"SQLite format 3\x00"
 _RUN_COLUMNS = (
@@ -159,6 +165,20 @@ class StoreReader:
             query, args = f"{query} AND {end} <= ?", (*args, upto)
         row = self._conn.execute(f"{query} ORDER BY episode_index DESC LIMIT 1", args).fetchone()
         return None if row is None else (int(row[0]), codecs.decode_json(row[1]))
+
+    def episodes(self, name: str, upto_iteration: int | None = None) -> list[EpisodeRecord]:
+        """As `Store.episodes`: the stored episodes in order (those finished by
+        ``upto_iteration``)."""
+        upto = check_iteration(upto_iteration, "upto_iteration")
+        query = ("SELECT episode_index, first_iteration, array_codec, actions, contexts, "
+                 "outcomes, extra_json FROM episodes WHERE run_id = ?")
+        args: tuple = (self._run_id(name),)
+        if upto is not None:
+            query, args = f"{query} AND first_iteration + n_iterations <= ?", (*args, upto)
+        return [EpisodeRecord(index, first, *(codecs.decode_array(a, codec) for a in arrays),
+                              codecs.decode_json(extra))
+                for index, first, codec, *arrays, extra in
+                self._conn.execute(f"{query} ORDER BY episode_index", args)]
 
     def checkpoint(self, name: str, at_or_before: int | None = None) -> Checkpoint | None:
         """As `Store.checkpoint`: the latest checkpoint at or before ``at_or_before``, read

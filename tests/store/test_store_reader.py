@@ -63,6 +63,14 @@ def _same_checkpoint(a, b) -> None:
         assert np.array_equal(array, other) and not array.flags.writeable, key
 
 
+def _same_episodes(a, b) -> None:
+    assert [(e.index, e.first_iteration, e.extra) for e in a] == \
+        [(e.index, e.first_iteration, e.extra) for e in b]
+    for x, y in zip(a, b, strict=True):
+        for field in ("actions", "contexts", "outcomes"):
+            assert np.array_equal(getattr(x, field), getattr(y, field)), field
+
+
 def test_the_reader_reads_what_the_store_reads(path):
     with Store.open(path, create=False) as st, StoreReader.open(path) as reader:
         assert reader.list_runs() == st.list_runs()
@@ -70,6 +78,7 @@ def test_the_reader_reads_what_the_store_reads(path):
             assert reader.get_run(run) == st.get_run(run)
             for at in (None, 0, 4, 5, 22, 23, 39, 50, 1000):
                 assert reader.episode_extra(run, at) == st.episode_extra(run, at), (run, at)
+                _same_episodes(reader.episodes(run, at), st.episodes(run, at))
                 _same_checkpoint(reader.checkpoint(run, at), st.checkpoint(run, at))
     assert st.get_run("child").lock is not None and st.get_run("child").parent == "run-1"
 
@@ -91,18 +100,21 @@ def test_the_reader_fails_as_the_store_fails(path):
         # A live holder: the store's refusal, word for word up to the heartbeat's age.
         with pytest.raises(RunLocked) as by_store:
             st.acquire_lock("child", "another")
-        with pytest.raises(RunLocked) as by_reader:
-            reader.refuse_if_locked("child")
-        assert str(by_reader.value).split("last heartbeat")[0] == \
-            str(by_store.value).split("last heartbeat")[0]
-        reader.refuse_if_locked("run-1")  # not locked
+        for refuses in (st, reader):
+            with pytest.raises(RunLocked) as by_reader:
+                refuses.refuse_if_locked("child")
+            assert str(by_reader.value).split("last heartbeat")[0] == \
+                str(by_store.value).split("last heartbeat")[0]
+            refuses.refuse_if_locked("run-1")  # not locked
     con = sqlite3.connect(path)
     con.execute("UPDATE runs SET lock_heartbeat = ?, lock_host = 'elsewhere' WHERE name = "
                 "'child'", (time.time() - 3600,))
     con.commit()
     con.close()
-    with StoreReader.open(path) as reader:
-        reader.refuse_if_locked("child")  # stale: whoever writes next takes it over
+    with StoreReader.open(path) as reader, Store.open(path, create=False) as st:
+        for refuses in (st, reader):
+            refuses.refuse_if_locked("child")  # stale: whoever writes next takes it over
+        assert st.get_run("child").lock is not None  # and nothing was written
 
 
 def _files(folder: Path) -> dict[str, bytes]:
@@ -149,7 +161,8 @@ def test_the_reader_imports_no_sqlalchemy(path):
     script = ("import sys\n"
               "from hadim_store.reader import StoreReader\n"
               "with StoreReader.open(__import__('pathlib').Path(sys.argv[1])) as r:\n"
-              "    r.get_run('run-1'); r.episode_extra('run-1'); r.checkpoint('run-1')\n"
+              "    r.get_run('run-1'); r.episode_extra('run-1')\n"
+              "    r.checkpoint('run-1'); r.episodes('run-1'); r.refuse_if_locked('run-1')\n"
               "print(sorted(m for m in sys.modules if m.split('.')[0] in "
               "('sqlalchemy', 'alembic')))\n")
     env = {k: v for k, v in os.environ.items() if k != "PYTHONPATH"}
