@@ -9,8 +9,6 @@ from rich.console import Console
 from rich.table import Table
 from rich.text import Text
 
-from hadim_cli.learner.competence import split_zero
-
 if TYPE_CHECKING:  # the learner (and torch) only where H is rendered from a checkpoint
     from hadim_cli.evaluation.runner import FirstPush, TaskResult
     from hadim_cli.session import Session
@@ -32,6 +30,7 @@ def entity_label(entity: str, scene) -> str:
 def affordance_rows(session: Session) -> list[dict[str, Any]]:
     """H as plain rows; p_A is asked about every entity of the push-object task's scene."""
     from hadim_cli.evaluation.tasks import load_task
+    from hadim_cli.learner.competence import split_zero  # scipy: only where H is computed
     from hadim_cli.learner.frames import FramedModel
     from hadim_cli.world.world import World
 

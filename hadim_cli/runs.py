@@ -20,7 +20,6 @@ import numpy as np
 
 from hadim_cli.config import Config, stored_config
 from hadim_cli.errors import HadimError
-from hadim_store.api import Store
 from hadim_store.records import (
     AffordanceEvent,
     AffordanceStat,
@@ -30,13 +29,17 @@ from hadim_store.records import (
     RunStatus,
 )
 
-# The learner (and torch, through p_A) is imported inside the functions that need it, so that
-# commands which only read the store (`runs list`, `runs show`, errors) answer in well under a
-# second: importing torch alone takes seconds.
+# The learner (and torch, through p_A) is imported inside the functions that need it, and so
+# is the full store (SQLAlchemy): commands that only look at a run (`affordances RUN`, the
+# refusals of `resume` and `eval`) read a sound store file with sqlite3 alone (`open_reader`)
+# and answer in well under a second; importing torch alone takes seconds, SQLAlchemy half of
+# one.
 if TYPE_CHECKING:
     from hadim_cli.evaluation.runner import TaskResult
     from hadim_cli.learner.hierarchy import Event
     from hadim_cli.session import EpisodeLog, Session
+    from hadim_store.api import Store
+    from hadim_store.reader import StoreReader
 
 STORE_ENV = "HADIM_STORE"
 SNAPSHOT_ENV = "HADIM_SNAPSHOT_EVERY"
@@ -84,6 +87,7 @@ def open_store(option: str | None, *, create: bool = True, writes: bool = True,
     damaged, rather than written into; for one that only reads, the findings are kept for
     `chosen_run` and `damaged_runs`."""
     from hadim_store import engine
+    from hadim_store.api import Store
     from hadim_store.errors import DamagedStore
 
     where = store_location(option)
@@ -107,7 +111,31 @@ def open_store(option: str | None, *, create: bool = True, writes: bool = True,
     return Store.open(where, create=create, snapshot_every=snapshot_every())
 
 
-def chosen_run(store: Store, name: str | None) -> RunRecord:
+def light_reader(option: str | None) -> StoreReader | None:
+    """A reader of the store `option` names that needs no SQLAlchemy (sqlite3 alone), when
+    it is a SQLite file of this hadim's schema that SQLite finds sound; else None: the full
+    store (`open_store`) upgrades, refuses or reports it."""
+    from hadim_store.reader import StoreReader
+
+    where = store_location(option)
+    if "://" in where or not Path(where).is_file():
+        return None
+    reader = StoreReader.open(Path(where))
+    if reader is not None:
+        opened[:] = [where]
+        reading.clear()
+        file_damage.clear()
+    return reader
+
+
+def open_reader(option: str | None, *, run: str | None = None) -> StoreReader | Store:
+    """The store `option` names, to read a run from: the light reader when the file allows,
+    else the full store, opened to read (`open_store`). Both give `get_run`, `list_runs`,
+    `episode_extra`, `episodes`, `checkpoint` and `refuse_if_locked`."""
+    return light_reader(option) or open_store(option, create=False, writes=False, run=run)
+
+
+def chosen_run(store: Store | StoreReader, name: str | None) -> RunRecord:
     """The run a command names, or (no name) the store's most recently updated one, said on
     stderr. In a file SQLite finds damaged, the run is first read back as `hadim store check`
     reads it: a damaged run is one line, never a silent answer."""
@@ -236,7 +264,7 @@ def session_state(session: Session) -> tuple[dict[str, Any], dict[str, np.ndarra
     }, arrays
 
 
-def restore_session(store: Store, run: RunRecord, at: int | None = None,
+def restore_session(store: Store | StoreReader, run: RunRecord, at: int | None = None,
                     config: Config | None = None) -> Session:
     """The run's session as it stood at its checkpoint at or before `at` (latest if None);
     with `config`, as a fork of it with that config would start (to check it fits)."""
@@ -392,7 +420,7 @@ def train(store: Store | None, run: str | None, session: Session, total: int, *,
     return scores
 
 
-def target_iterations(store: Store, run: RunRecord, default: int) -> int:
+def target_iterations(store: Store | StoreReader, run: RunRecord, default: int) -> int:
     """The iterations `run` was last driven to (by `train`, `resume`), as its last stored
     episode records them; `default` for a run without such a record (none stored yet, or
     stored by an older hadim)."""
@@ -401,11 +429,20 @@ def target_iterations(store: Store, run: RunRecord, default: int) -> int:
     return target if isinstance(target, int) and target > 0 else default
 
 
-def stored_hierarchy(store: Store, run: RunRecord, at: int | None
+H_FIELDS = frozenset({"id", "input", "output", "context", "frame", "created_at", "competence",
+                      "data", "effect", "goals", "accepts"})
+"""What each of H's stored rows holds (`reports.affordance_rows`)."""
+
+
+def stored_hierarchy(store: Store | StoreReader, run: RunRecord, at: int | None
                      ) -> tuple[list[dict[str, Any]], int] | None:
     """H's rows (`reports.affordance_rows`) and their iteration, as stored with the last
     episode at or before `at`: what `hadim affordances RUN` shows, read without the learner.
-    None when they must be computed from a restored session (episodes from an older hadim)."""
+    None when they must be computed from a restored session (episodes from an older hadim).
+
+    The checkpoint of that iteration is read back too (its values decoded, the learner not
+    rebuilt): a table of H over a run whose state cannot be read would hide the damage that
+    `resume` and `eval` refuse."""
     found = store.episode_extra(run.name, at)
     if found is None:
         if at is not None and at > 0 and run.iterations > 0:
@@ -413,7 +450,13 @@ def stored_hierarchy(store: Store, run: RunRecord, at: int | None
         return [], 0  # nothing trained yet: H is empty
     iteration, extra = found
     rows = extra.get(HIERARCHY_KEY)
-    return None if rows is None else (rows, iteration)
+    if rows is None:
+        return None
+    if not isinstance(rows, list) or not all(isinstance(r, dict) and r.keys() >= H_FIELDS
+                                             for r in rows):
+        raise HadimError(damage_line(run.name, f"H's stored table at {iteration} is malformed"))
+    store.checkpoint(run.name, iteration)
+    return rows, iteration
 
 
 def new_run(store: Store, config: Config, seed: int, name: str | None) -> RunRecord:
@@ -427,9 +470,10 @@ def finish_status(session: Session, total: int) -> RunStatus:
     return RunStatus.FINISHED if session.iteration >= total else RunStatus.PAUSED
 
 
-def damaged_runs(store: Store, records: list[RunRecord]) -> list[str]:
+def damaged_runs(store: Store | StoreReader, records: list[RunRecord]) -> list[str]:
     """The runs that cannot be read back whole, looked for only in a file SQLite finds
-    damaged (`open_store`): a sound file costs nothing here."""
+    damaged (`open_store`; the light reader opens only a sound one): a sound file costs
+    nothing here."""
     if not file_damage:
         return []
     return [r.name for r in records if unreadable(store, r.name) is not None]

@@ -1,6 +1,7 @@
 """The hadim experiment store: runs, dataset D, affordance events, interest maps, checkpoints.
 
 Imports nothing from hadim_cli. Open one with ``Store.open(path_or_url)``; see docs/store.md.
+``StoreReader.open(path)`` reads a run of a SQLite file without SQLAlchemy (hadim_store.reader).
 """
 
 from __future__ import annotations
@@ -12,6 +13,7 @@ from typing import Any
 # `--help` imports it), while `hadim_store.api` pulls in SQLAlchemy.
 _WHERE = {
     "DatasetArrays": "api", "Store": "api", "upgrade_store": "api",
+    "StoreReader": "reader",
     "Upgrade": "schema",
     "CodecError": "errors", "RunLocked": "errors", "SchemaError": "errors",
     "StoreError": "errors", "UnknownRun": "errors",
@@ -48,6 +50,7 @@ __all__ = [
     "SchemaError",
     "Store",
     "StoreError",
+    "StoreReader",
     "UnknownRun",
     "Upgrade",
     "upgrade_store",

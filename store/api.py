@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import difflib
 import hashlib
 import numbers
 import os
@@ -21,7 +20,7 @@ from sqlalchemy.orm import Session, sessionmaker
 
 from hadim_store import codecs, deltas, locking
 from hadim_store import engine as engines
-from hadim_store.errors import RunLocked, StoreError, UnknownRun
+from hadim_store.errors import RunLocked, StoreError, unknown_run
 from hadim_store.models import (
     AffordanceEventRow,
     AffordanceStatRow,
@@ -44,10 +43,11 @@ from hadim_store.records import (
     LockInfo,
     RunRecord,
     RunStatus,
+    check_iteration,
 )
 from hadim_store.schema import Upgrade
 
-DEFAULT_LOCK_TIMEOUT_S = 60.0
+DEFAULT_LOCK_TIMEOUT_S = locking.DEFAULT_TIMEOUT_S
 _NAME_RE = re.compile(r"[A-Za-z0-9][A-Za-z0-9._-]{0,63}")
 _AUTO_NAME_RE = re.compile(r"run-(\d+)")
 _MAX_SEED = 2**63 - 1
@@ -77,14 +77,6 @@ def _now() -> datetime:
 
 def _aware(moment: datetime) -> datetime:
     return moment.replace(tzinfo=UTC)
-
-
-def _check_iteration(value: int | None, what: str) -> int | None:
-    if value is None:
-        return None
-    if isinstance(value, bool) or not isinstance(value, numbers.Integral) or value < 0:
-        raise StoreError(f"{what} must be a non-negative integer, got {value!r}")
-    return int(value)
 
 
 def _check_name(name: str) -> str:
@@ -244,7 +236,7 @@ class Store:
                 seed=seed,
                 name=name,
                 parent_id=parent_id,
-                fork_iteration=_check_iteration(fork_iteration, "fork_iteration"),
+                fork_iteration=check_iteration(fork_iteration, "fork_iteration"),
                 versions=versions,
                 iterations=0,
             )
@@ -283,7 +275,7 @@ class Store:
             row = _run_row(session, name)
             holder = _holder(row)
             if holder is not None and self._stale(holder) is None:
-                raise RunLocked(f"cannot delete run {name!r}: {_describe(holder)}")
+                raise RunLocked(f"cannot delete run {name!r}: {locking.describe(holder)}")
             self._last.pop(row.id, None)
             session.execute(delete(Run).where(Run.id == row.id))
 
@@ -424,7 +416,7 @@ class Store:
 
     def episodes(self, name: str, upto_iteration: int | None = None) -> list[EpisodeRecord]:
         """Stored episodes in order; with ``upto_iteration=t``, those finished by iteration t."""
-        upto = _check_iteration(upto_iteration, "upto_iteration")
+        upto = check_iteration(upto_iteration, "upto_iteration")
         with self.session_scope(write=False) as session:
             query = _episodes_query(_run_row(session, name).id)
             if upto is not None:
@@ -435,7 +427,7 @@ class Store:
                       ) -> tuple[int, dict[str, Any]] | None:
         """The last stored episode's end iteration and ``extra`` (with ``upto_iteration=t``, the
         last finished by iteration t), without reading its arrays; None if there is none."""
-        upto = _check_iteration(upto_iteration, "upto_iteration")
+        upto = check_iteration(upto_iteration, "upto_iteration")
         end = Episode.first_iteration + Episode.n_iterations
         with self.session_scope(write=False) as session:
             query = (select(end, Episode.extra_json)
@@ -452,7 +444,7 @@ class Store:
         With ``upto_iteration=t``, the first t rows (D as it was after t iterations). An empty
         run gives three empty float64 arrays of shape (0,).
         """
-        upto = _check_iteration(upto_iteration, "upto_iteration")
+        upto = check_iteration(upto_iteration, "upto_iteration")
         with self.session_scope(write=False) as session:
             query = _episodes_query(_run_row(session, name).id)
             if upto is not None:
@@ -514,7 +506,7 @@ class Store:
     def _select_upto(
         self, name: str, query: Select, model: type, upto: int | None, affordance_id: int | None
     ) -> list[Any]:
-        upto = _check_iteration(upto, "upto_iteration")
+        upto = check_iteration(upto, "upto_iteration")
         with self.session_scope(write=False) as session:
             query = query.where(model.run_id == _run_row(session, name).id)
             if upto is not None:
@@ -527,7 +519,7 @@ class Store:
         self, name: str, iteration: int | None = None, *, affordance_id: int | None = None
     ) -> list[InterestRegion]:
         """The latest interest-map snapshot at or before ``iteration`` (the last if None)."""
-        upto = _check_iteration(iteration, "iteration")
+        upto = check_iteration(iteration, "iteration")
         with self.session_scope(write=False) as session:
             run_id = _run_row(session, name).id
             latest = select(func.max(InterestRegionRow.iteration)).where(
@@ -551,7 +543,7 @@ class Store:
         """The latest checkpoint at or before ``at_or_before`` (the last if None), or None.
 
         A delta checkpoint is read with the chain of checkpoints back to its full snapshot."""
-        upto = _check_iteration(at_or_before, "at_or_before")
+        upto = check_iteration(at_or_before, "at_or_before")
         with self.session_scope(write=False) as session:
             run_id = _run_row(session, name).id
             row = _checkpoint_row(session, run_id, upto)
@@ -637,7 +629,7 @@ class Store:
             row = _run_row(session, name)
             holder = _holder(row)
             if holder is not None and self._stale(holder) is None:
-                raise RunLocked(f"cannot rewind run {name!r}: {_describe(holder)}")
+                raise RunLocked(f"cannot rewind run {name!r}: {locking.describe(holder)}")
             chosen = _fork_checkpoint(session, row, to_checkpoint)
             for model in _PER_EPISODE:
                 session.execute(
@@ -664,7 +656,7 @@ class Store:
     def add_evaluation(
         self, name: str, iteration: int, task: str, score: float, points: Sequence[Any] = ()
     ) -> Evaluation:
-        iteration = _check_iteration(iteration, "iteration")
+        iteration = check_iteration(iteration, "iteration")
         if not isinstance(task, str) or not task or len(task) > 128:
             raise StoreError(f"evaluation task must be a name of 1-128 characters, got {task!r}")
         checked = codecs.finite_or_none(score, "evaluation score")
@@ -723,11 +715,19 @@ class Store:
                     return None
                 raise RunLocked(f"run {name!r} was locked by another process meanwhile")
             if self._stale(holder) is None:
-                raise RunLocked(f"run {name!r} is in use: {_describe(holder)}")
+                raise RunLocked(f"run {name!r} is in use: {locking.describe(holder)}")
             same = (Run.lock_owner == holder.owner) & (Run.lock_heartbeat == holder.heartbeat)
             if not _conditional_update(session, row.id, same, mine):
                 raise RunLocked(f"run {name!r} was taken over by another process meanwhile")
-            return _lock_info(holder)
+            return locking.lock_info(holder)
+
+    def refuse_if_locked(self, name: str) -> None:
+        """Raise :class:`RunLocked`, as :meth:`acquire_lock` would, if a live process holds the
+        run's lock; a free or stale lock passes (whoever writes next takes it). Writes nothing."""
+        with self.session_scope(write=False) as session:
+            holder = _holder(_run_row(session, name))
+        if holder is not None and self._stale(holder) is None:
+            raise RunLocked(f"run {name!r} is in use: {locking.describe(holder)}")
 
     def heartbeat(self, name: str, owner: str) -> None:
         """Refresh ``owner``'s lock; raises :class:`RunLocked` if ``owner`` no longer holds it."""
@@ -738,7 +738,7 @@ class Store:
             ):
                 session.refresh(row)
                 holder = _holder(row)
-                now_held = f"now {_describe(holder)}" if holder else "it is not locked"
+                now_held = f"now {locking.describe(holder)}" if holder else "it is not locked"
                 raise RunLocked(f"run {name!r} is no longer locked by {owner!r}: {now_held}")
 
     def release_lock(self, name: str, owner: str) -> bool:
@@ -810,13 +810,7 @@ def _run_row(session: Session, name: str) -> Run:
     row = session.scalar(query)
     if row is not None:
         return row
-    names = list(session.scalars(select(Run.name)))
-    close = difflib.get_close_matches(str(name), names, n=3)
-    if close:
-        hint = f"; did you mean {', '.join(close)}?"
-    else:
-        hint = f" (the store has {len(names)} run{'s' if len(names) != 1 else ''})"
-    raise UnknownRun(f"no run named {name!r}{hint}")
+    raise unknown_run(name, list(session.scalars(select(Run.name))))
 
 
 def _next_auto_name(session: Session) -> str:
@@ -831,27 +825,7 @@ def _next_auto_name(session: Session) -> str:
 
 
 def _holder(row: Run) -> locking.Holder | None:
-    if row.lock_owner is None:
-        return None
-    return locking.Holder(
-        owner=row.lock_owner,
-        pid=row.lock_pid or 0,
-        host=row.lock_host or "",
-        heartbeat=row.lock_heartbeat or 0.0,
-    )
-
-
-def _lock_info(holder: locking.Holder) -> LockInfo:
-    heartbeat = datetime.fromtimestamp(holder.heartbeat, UTC)
-    return LockInfo(holder.owner, holder.pid, holder.host, heartbeat)
-
-
-def _describe(holder: locking.Holder) -> str:
-    age = time.time() - holder.heartbeat
-    return (
-        f"locked by pid {holder.pid} on {holder.host} (owner {holder.owner!r}, "
-        f"last heartbeat {age:.0f} s ago)"
-    )
+    return locking.holder(row.lock_owner, row.lock_pid, row.lock_host, row.lock_heartbeat)
 
 
 def _conditional_update(session: Session, run_id: int, condition: Any, values: dict) -> bool:
@@ -882,13 +856,13 @@ def _run_record(session: Session, row: Run, names: Mapping[int, str] | None = No
         iterations=row.iterations,
         created_at=_aware(row.created_at),
         updated_at=_aware(row.updated_at),
-        lock=_lock_info(holder) if holder else None,
+        lock=locking.lock_info(holder) if holder else None,
     )
 
 
 def _validate_episode(episode: EpisodeWrite) -> None:
-    _check_iteration(episode.index, "episode index")
-    _check_iteration(episode.first_iteration, "first_iteration")
+    check_iteration(episode.index, "episode index")
+    check_iteration(episode.first_iteration, "first_iteration")
     lengths = {np.shape(getattr(episode, key))[:1] for key in DatasetArrays._fields}
     if any(np.ndim(getattr(episode, key)) == 0 for key in DatasetArrays._fields):
         raise StoreError("episode actions, contexts and outcomes must have one row per iteration")
@@ -1037,7 +1011,7 @@ def _checkpoint_row(session: Session, run_id: int, upto: int | None) -> Checkpoi
 
 def _fork_checkpoint(session: Session, source: Run, at_iteration: int | None) -> CheckpointRow:
     """The latest checkpoint of ``source`` at or before ``at_iteration``; raises if none."""
-    at_iteration = _check_iteration(at_iteration, "iteration")
+    at_iteration = check_iteration(at_iteration, "iteration")
     if at_iteration is not None and at_iteration > source.iterations:
         raise StoreError(
             f"run {source.name!r} has no iteration {at_iteration}: "

@@ -10,6 +10,7 @@ from __future__ import annotations
 import io
 import json
 import math
+import re
 import zlib
 from collections.abc import Mapping
 from typing import Any
@@ -22,6 +23,11 @@ NPY = "npy"
 NPY_ZLIB = "npy+zlib"
 ARRAY_CODECS = (NPY, NPY_ZLIB)
 _NPY_MAGIC = b"\x93NUMPY"
+# The header np.save writes for a plain dtype (format 1.0, after the magic, the version and the
+# header's length): read without `ast.literal_eval`, which is most of the cost of reading a
+# checkpoint's many small arrays. Any other header goes to numpy's own reader.
+_NPY_HEADER = re.compile(rb"\{'descr': '([<>|=]?[A-Za-z]\d*)', 'fortran_order': (False|True), "
+                         rb"'shape': \(((?:\d+, ?)*\d*)\), \} *\n")
 # A blob may not inflate beyond this: a crafted zlib stream must not exhaust memory.
 MAX_ARRAY_BYTES = 1 << 32
 _ZLIB_LEVEL = 1
@@ -53,13 +59,41 @@ def decode_array(blob: bytes, codec: str = NPY) -> np.ndarray:
     if not data.startswith(_NPY_MAGIC):
         raise CodecError("refused blob: not .npy data")
     try:
-        array = np.lib.format.read_array(io.BytesIO(data), allow_pickle=False)
+        array = _plain_npy(data)
+        if array is None:
+            stream = io.BytesIO(data)
+            array = np.lib.format.read_array(stream, allow_pickle=False)
+            if stream.tell() != len(data):
+                raise ValueError(f"{len(data) - stream.tell()} bytes after the array's data")
     except Exception as exc:  # any parse failure of untrusted bytes is a refusal
         raise CodecError(f"refused .npy blob: {exc}") from exc
     if array.dtype.hasobject:  # read_array already refuses these; belt and braces
         raise CodecError("refused .npy blob: object dtype")
     array.flags.writeable = False
     return array
+
+
+def _plain_npy(data: bytes) -> np.ndarray | None:
+    """The array of a `.npy` blob with np.save's usual header (format 1.0, a plain dtype);
+    None for any other header. Its data must fill the rest of the blob exactly."""
+    if data[6:8] != b"\x01\x00" or len(data) < 10:
+        return None
+    start = 10 + int.from_bytes(data[8:10], "little")
+    header = _NPY_HEADER.fullmatch(data, 10, start)
+    if header is None:
+        return None
+    dtype = np.dtype(header[1].decode("ascii"))
+    if dtype.hasobject:
+        return None  # numpy's reader refuses it with its own reason
+    shape = tuple(int(n) for n in header[3].split(b",") if n.strip())
+    count = math.prod(shape)
+    if len(data) - start != count * dtype.itemsize:
+        raise ValueError(f"expected {count * dtype.itemsize} bytes of array data, "
+                         f"got {len(data) - start}")
+    array = np.frombuffer(data, dtype, count, start)
+    if header[2] == b"True":  # as numpy reads it: the reversed shape, transposed
+        return array.reshape(shape[::-1]).transpose()
+    return array.reshape(shape)
 
 
 def _inflate(data: bytes) -> bytes:
@@ -70,6 +104,11 @@ def _inflate(data: bytes) -> bytes:
         raise CodecError(f"refused blob: bad zlib data ({exc})") from exc
     if inflater.unconsumed_tail:
         raise CodecError(f"refused blob: inflates beyond {MAX_ARRAY_BYTES} bytes")
+    # A stream cut short may still inflate whole (only its checksum lost): its end must be
+    # there, and nothing after it.
+    if not inflater.eof or inflater.unused_data:
+        raise CodecError("refused blob: bad zlib data (the stream is cut short or followed "
+                         "by other bytes)")
     return out
 
 

@@ -17,9 +17,9 @@ from sqlalchemy.pool import StaticPool
 
 from hadim_store import migrations, schema
 from hadim_store.errors import DamagedStore, SchemaError, StoreError
+from hadim_store.reader import SQLITE_HEADER, connect_readonly, quick_check
 
 BUSY_TIMEOUT_S = 10.0
-_SQLITE_HEADER = b"SQLite format 3\x00"
 # Execution option read by the "begin" hook: write scopes take SQLite's write lock up front so
 # that two writers queue on busy_timeout instead of failing on a stale read snapshot.
 BEGIN_MODE_OPTION = "hadim_sqlite_begin"
@@ -68,10 +68,10 @@ def check_sqlite_file(path: Path, *, create: bool) -> None:
             raise StoreError(f"no hadim store at {path} (the file is empty)")
         return
     with path.open("rb") as handle:
-        if handle.read(len(_SQLITE_HEADER)) != _SQLITE_HEADER:
+        if handle.read(len(SQLITE_HEADER)) != SQLITE_HEADER:
             raise SchemaError(f"{path} is not a SQLite database")
     readonly = create_engine(
-        "sqlite://", creator=lambda: _connect_readonly(path), poolclass=StaticPool)
+        "sqlite://", creator=lambda: connect_readonly(path), poolclass=StaticPool)
     try:
         with readonly.connect() as conn:
             version = schema.read_state(conn, str(path)).version
@@ -83,33 +83,6 @@ def check_sqlite_file(path: Path, *, create: bool) -> None:
         readonly.dispose()
     if version is None and not create:
         raise StoreError(f"no hadim store at {path} (the database is empty)")
-
-
-def _connect_readonly(path: Path) -> sqlite3.Connection:
-    """A read-only connection that creates no file. Without a `-wal` file beside it the whole
-    database is in `path`, which is then opened `immutable` (so SQLite makes no `-wal`/`-shm`,
-    e.g. beside a truncated file it is about to refuse); with one, a live writer may hold
-    commits there, and a plain read-only connection reads them."""
-    wal = path.with_name(path.name + "-wal")
-    flags = "mode=ro" if wal.exists() else "mode=ro&immutable=1"
-    return sqlite3.connect(f"{path.resolve().as_uri()}?{flags}", uri=True)
-
-
-def quick_check(path: Path, *, full: bool = False) -> list[str]:
-    """SQLite's own consistency check of a store file: [] if sound, else its findings.
-
-    `PRAGMA quick_check` (`integrity_check` with `full`) reads every page without writing; a
-    file too damaged to be checked at all gives one finding."""
-    pragma = "integrity_check" if full else "quick_check"
-    try:
-        conn = _connect_readonly(path)
-        try:
-            rows = [str(r[0]) for r in conn.execute(f"PRAGMA {pragma}(20)")]
-        finally:
-            conn.close()
-    except sqlite3.DatabaseError as exc:
-        return [str(exc)]
-    return [] if rows == ["ok"] else rows
 
 
 def require_intact(path: Path) -> None:

@@ -5,6 +5,9 @@ The CLI prints the message of any :class:`StoreError` on one line and exits with
 
 from __future__ import annotations
 
+import difflib
+from collections.abc import Sequence
+
 
 class StoreError(Exception):
     """Base of every error the store raises on purpose (bad input, unusable store)."""
@@ -14,6 +17,16 @@ class StoreError(Exception):
 
 class UnknownRun(StoreError):
     """No run has the given name."""
+
+
+def unknown_run(name: str, names: Sequence[str]) -> UnknownRun:
+    """No run `name` among `names`: the closest names, or how many runs there are."""
+    close = difflib.get_close_matches(str(name), list(names), n=3)
+    if close:
+        hint = f"; did you mean {', '.join(close)}?"
+    else:
+        hint = f" (the store has {len(names)} run{'s' if len(names) != 1 else ''})"
+    return UnknownRun(f"no run named {name!r}{hint}")
 
 
 class SchemaError(StoreError):

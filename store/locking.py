@@ -6,6 +6,12 @@ import os
 import socket
 import time
 from dataclasses import dataclass
+from datetime import UTC, datetime
+
+from hadim_store.records import LockInfo
+
+DEFAULT_TIMEOUT_S = 60.0
+"""A lock whose holder has not beaten for this long may be taken over."""
 
 
 @dataclass(frozen=True)
@@ -14,6 +20,27 @@ class Holder:
     pid: int
     host: str
     heartbeat: float
+
+
+def holder(owner: str | None, pid: int | None, host: str | None,
+           heartbeat: float | None) -> Holder | None:
+    """The holder a run's lock columns record; None when the run is not locked."""
+    if owner is None:
+        return None
+    return Holder(owner=owner, pid=pid or 0, host=host or "", heartbeat=heartbeat or 0.0)
+
+
+def lock_info(holder: Holder) -> LockInfo:
+    return LockInfo(holder.owner, holder.pid, holder.host,
+                    datetime.fromtimestamp(holder.heartbeat, UTC))
+
+
+def describe(holder: Holder) -> str:
+    age = time.time() - holder.heartbeat
+    return (
+        f"locked by pid {holder.pid} on {holder.host} (owner {holder.owner!r}, "
+        f"last heartbeat {age:.0f} s ago)"
+    )
 
 
 def this_host() -> str:

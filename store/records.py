@@ -7,12 +7,24 @@ copy them (``arr.copy()``) before changing them in place.
 from __future__ import annotations
 
 import enum
+import numbers
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 from datetime import datetime
 from typing import Any
 
 import numpy as np
+
+from hadim_store.errors import StoreError
+
+
+def check_iteration(value: int | None, what: str) -> int | None:
+    """An iteration (or index) a caller passes: None, or a non-negative integer."""
+    if value is None:
+        return None
+    if isinstance(value, bool) or not isinstance(value, numbers.Integral) or value < 0:
+        raise StoreError(f"{what} must be a non-negative integer, got {value!r}")
+    return int(value)
 
 
 class RunStatus(enum.StrEnum):

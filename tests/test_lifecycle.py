@@ -396,9 +396,9 @@ def test_a_crafted_checkpoint_blob_is_refused(runner, tmp_path):
     digest = sha(runner, store, run)
     refused(runner, "resume", run, "--iterations", 100, "--eval-every", 0, "--store", store,
             match="refused")
-    # H's table is read from the episodes' records, not from the checkpoint: it decodes no
-    # array; what restores the session (`--pa`) refuses the blob like resume and eval.
-    ok(runner, "affordances", run, "--store", store)
+    # H's table is read from the episodes' records, and the checkpoint it stands for is read
+    # back with it: the blob is refused there too, as by what restores the session (`--pa`).
+    refused(runner, "affordances", run, "--store", store, match="refused")
     refused(runner, "affordances", run, "--pa", "--store", store, match="refused")
     refused(runner, "eval", run, "--task", "move-robot", "--store", store, match="refused")
     assert not marker.exists()

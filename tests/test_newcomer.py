@@ -10,13 +10,16 @@ import json
 import os
 import re
 import shutil
+import sqlite3
 import subprocess
 import sys
 from pathlib import Path
 
+import numpy as np
 import pytest
 
 from hadim_store.api import Store
+from hadim_store.reader import quick_check
 
 ROOT = Path(__file__).resolve().parents[1]
 HADIM = shutil.which("hadim", path=str(Path(sys.executable).parent)) or "hadim"
@@ -97,27 +100,36 @@ def test_resume_of_a_finished_run_says_so_and_how_to_go_further(store):
 
 # --------------------------------------------------------------------------- 2. fast refusals
 
+HEAVY = ("torch", "pymunk", "sklearn", "scipy", "matplotlib", "hadim_cli.learner.models",
+         "sqlalchemy")
+"""What a command that needs no learner must not import: the learner and its libraries take
+seconds, SQLAlchemy half of one (a sound store file is read with sqlite3, hadim_store.reader)."""
+
+
 def test_refusals_and_h_need_no_learner(store, tmp_path):
-    """What does not need the learner never imports it (torch alone takes seconds): the
-    table of H, and the refusals of a finished run, a run in use, a target outside the room.
-    docs/performance.md measures their times."""
+    """What does not need the learner never imports it, nor SQLAlchemy: H's table, the runs, and
+    the refusals of an unknown run, a finished run, a run in use, a target outside the room,
+    a task file that does not parse. docs/performance.md measures their times."""
     bad = tmp_path / "bad.toml"
     text = (ROOT / "configs" / "tasks" / "move-robot.toml").read_text()
     bad.write_text(re.sub(r"points = \[.*?\]\]", "points = [[9.0, 9.0]]", text, flags=re.S))
+    broken = tmp_path / "broken.toml"
+    broken.write_text("points = [[")
     ok("fork", "run-1", "--at", 50, "--name", "held", store=store)
     commands = [["affordances", "run-1"], ["affordances", "run-1", "--json"],
-                ["resume", "run-1"], ["eval", "run-1", "--points", str(bad)],
-                ["resume", "held", "-n", "200"]]
+                ["affordances", "run-1", "--at", "50"], ["runs", "list"], ["affordances", "rnu-1"],
+                ["resume", "run-1"], ["resume", "rnu-1"], ["resume", "held", "-n", "200"],
+                ["eval", "run-1", "--points", str(bad)], ["eval", "run-1", "--points", str(broken)],
+                ["eval", "rnu-1", "--points", str(bad)]]
     script = (
         "import json, sys\n"
         "from hadim_cli.app import main\n"
         "for args in json.loads(sys.argv[1]):\n"
         "    try:\n"
         f"        main(args + ['--store', {str(store)!r}])\n"
-        "    except SystemExit:\n"
-        "        pass\n"
-        "    print('loaded:', 'torch' in sys.modules,\n"
-        "          'hadim_cli.learner.explorer' in sys.modules)\n")
+        "    except SystemExit as exit:\n"
+        "        code = exit.code\n"
+        f"    print('loaded:', code, [m for m in {HEAVY!r} if m in sys.modules])\n")
     owner = f"{os.uname().nodename}:{os.getpid()}"
     with Store.open(store, create=False) as st:
         st.acquire_lock("held", owner)  # held by this live process
@@ -128,8 +140,10 @@ def test_refusals_and_h_need_no_learner(store, tmp_path):
         with Store.open(store, create=False) as st:
             st.release_lock("held", owner)
     loaded = [line for line in out.stdout.splitlines() if line.startswith("loaded:")]
-    assert loaded == ["loaded: False False"] * len(commands), out.stdout + out.stderr
-    for said in ("is outside the", "is finished at", "is in use"):
+    assert loaded == [f"loaded: {0 if i < 4 else 2} []" for i in range(len(commands))], \
+        out.stdout + out.stderr
+    for said in ("is outside the", "is finished at", "is in use", "not valid TOML",
+                 "did you mean run-1"):
         assert said in out.stderr, out.stderr
 
 
@@ -197,6 +211,57 @@ def test_damage_is_found_wherever_it_is_read(store, tmp_path, offset):
         else:
             assert result.returncode == 0 or len(result.stderr.strip().splitlines()) == 1, \
                 (args, result.stderr)
+
+
+def _craft(store: Path, copy: Path, column: str, damage: str) -> None:
+    """A copy of `store` whose run-1 has one value of `column` replaced, in a row that is
+    otherwise valid: random bytes, the value cut short, or (H) a table that is not H's.
+    `model`: the largest array of its latest checkpoint (a model's weights); `state`: that
+    checkpoint's JSON of the learner; `h`: its last episode's record, where H's table is
+    kept."""
+    shutil.copy(store, copy)
+    con = sqlite3.connect(copy)
+    latest = ("SELECT c.id FROM checkpoints c JOIN runs r ON r.id = c.run_id "
+              "WHERE r.name = 'run-1' ORDER BY c.iteration DESC LIMIT 1")
+    where, field, value = {
+        "model": lambda: ("checkpoint_items", "data", con.execute(
+            f"SELECT id, data FROM checkpoint_items WHERE checkpoint_id = ({latest}) AND "
+            "data IS NOT NULL ORDER BY length(data) DESC LIMIT 1").fetchone()),
+        "state": lambda: ("checkpoint_items", "text", con.execute(
+            f"SELECT id, text FROM checkpoint_items WHERE checkpoint_id = ({latest}) AND "
+            "key = 'learner'").fetchone()),
+        "h": lambda: ("episodes", "extra_json", con.execute(
+            "SELECT e.id, e.extra_json FROM episodes e JOIN runs r ON r.id = e.run_id WHERE "
+            "r.name = 'run-1' ORDER BY e.episode_index DESC LIMIT 1").fetchone()),
+    }[column]()
+    row, old = value
+    old = old.encode() if isinstance(old, str) else old
+    new = {"random bytes": lambda: np.random.default_rng(7).bytes(len(old)),
+           "cut short": lambda: old[:len(old) - max(3, len(old) // 3)],
+           "another table": lambda: json.dumps({"hierarchy": [{"id": 0}]}).encode()}[damage]()
+    con.execute(f"UPDATE {where} SET {field} = ? WHERE id = ?",
+                (new if damage == "random bytes" or field == "data" else new.decode(), row))
+    con.commit()
+    con.close()
+
+
+@pytest.mark.parametrize(("column", "damage"), [
+    (column, damage) for column in ("model", "state", "h")
+    for damage in ("random bytes", "cut short")] + [("h", "another table")])
+def test_a_crafted_value_is_one_line_wherever_affordances_reads_it(store, tmp_path, column,
+                                                                 damage):
+    """A row SQLite finds sound (the file passes its checks) whose value does not decode:
+    `affordances RUN` reads H's table and the checkpoint it stands for, and says in one line
+    that the run cannot be read, never exit 0 over a run that resume and eval would refuse."""
+    copy = tmp_path / "crafted.sqlite"
+    _craft(store, copy, column, damage)
+    assert quick_check(copy) == []  # a sound file: only the value is wrong
+    for args in (("affordances", "run-1"), ("affordances", "run-1", "--json")):
+        result = hadim(*args, "--store", copy)
+        line = one_error(result)
+        assert "run run-1 cannot be read" in line and len(line) <= 200, line
+        assert "{" not in line and "with text" not in line, line  # no row content
+        assert not result.stdout, result.stdout
 
 
 # --------------------------------------------------------------------------- 5. the figure

@@ -85,7 +85,7 @@ def resume_baseline(st, record, iterations: int | None, eval_every: int | None,
         raise HadimError(f"--eval-every must be a multiple of {multiple}, got {every}")
     driver.refuse_reached(record.name, record.iterations, total, iterations is not None,
                           store_option)
-    driver.refuse_if_locked(st, record.name)
+    st.refuse_if_locked(record.name)
     _threads()
     session = baseline_runs.restore(st, record)
     driver.drive(st, record.name, session, total, every, store_option,

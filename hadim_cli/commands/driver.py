@@ -112,19 +112,6 @@ def _holds_lock(store, run_name: str, owner: str) -> bool:
     return lock is not None and lock.owner == owner
 
 
-def refuse_if_locked(store, run_name: str) -> None:
-    """Refuse at once a run another live process drives (before restoring anything); a stale
-    lock is left for `drive` to take over."""
-    record = store.get_run(run_name)
-    if record.lock is None:
-        return
-    # Raises RunLocked (one line) if its holder is alive; a stale lock is taken and given
-    # back free, as `drive` would take it over anyway.
-    probe = f"probe:{id(store)}"
-    store.acquire_lock(run_name, probe)
-    store.release_lock(run_name, probe)
-
-
 def refuse_reached(run_name: str, have: int, total: int, asked: bool,
                    store_option: str | None) -> None:
     """One line, before anything is restored, when the run already has `total` iterations."""

@@ -38,7 +38,7 @@ def runs_list(
 
     from hadim_cli import runs
 
-    with runs.open_store(store, create=False, writes=False) as st:
+    with runs.open_reader(store) as st:  # sqlite3 alone when the file is sound
         records = st.list_runs()
         damaged = runs.damaged_runs(st, records)
     if as_json:
@@ -187,17 +187,16 @@ def affordances(
     if errors and (pa or timeline or out is not None):
         raise HadimError("--errors shows the models of H at one iteration: not with --pa, "
                          "--timeline or --out")
-    with runs.open_store(store, create=False, writes=False, run=run) as st:
-        record = runs.chosen_run(st, run)
-        _refuse_baseline(record, "affordances")
-        if at is not None and at > record.iterations:
-            raise HadimError(f"--at {at} is beyond run {record.name}'s {record.iterations} "
-                             "iterations")
-        if timeline or out is not None:
+    if timeline or out is not None:
+        with runs.open_store(store, create=False, writes=False, run=run) as st:
+            record = _learner_run(st, run, at, "affordances")
             _show_timeline(st.events(record.name, upto_iteration=at), record, at, out, as_json)
-            return
-        # H's table is stored with every episode; p_A and the models' errors (and H of a run
-        # stored by an older hadim) need the session restored.
+        return
+    # H's table is stored with every episode, and read with the checkpoint it stands for by
+    # sqlite3 alone when the file allows; p_A and the models' errors (and H of a run stored by
+    # an older hadim) need the session restored.
+    with runs.open_reader(store, run=run) as st:
+        record = _learner_run(st, run, at, "affordances")
         stored = None if pa or errors else runs.stored_hierarchy(st, record, at)
         session = runs.restore_session(st, record, at) if stored is None else None
     if session is None:
@@ -215,6 +214,19 @@ def affordances(
         from hadim_cli.reports import render_h_table
 
         render_h_table(_console(), rows, iteration)
+
+
+def _learner_run(st, run: str | None, at: int | None, what: str):
+    """The learner's run `run` names (the most recent if None), refused if a baseline's or
+    if `at` is beyond its iterations."""
+    from hadim_cli import runs
+
+    record = runs.chosen_run(st, run)
+    _refuse_baseline(record, what)
+    if at is not None and at > record.iterations:
+        raise HadimError(f"--at {at} is beyond run {record.name}'s {record.iterations} "
+                         "iterations")
+    return record
 
 
 def _show_timeline(events, record, at: int | None, out: Path | None, as_json: bool) -> None:
@@ -289,15 +301,14 @@ def eval_cmd(
         raise HadimError("give exactly one of --task NAME or --points FILE")
     chosen = _with_budget(load_task(task) if task is not None else load_task_file(points),
                           budget)
+    diagnostic = animate is not None or bool(exact)
+    reader = runs.light_reader(store)
+    if reader is not None:  # the refusals that need no learner, read with sqlite3 alone
+        with reader:
+            run = _eval_refusals(reader, run, at, chosen, diagnostic).name
     with runs.open_store(store, create=False, run=run) as st:
-        record = runs.chosen_run(st, run)
-        run = record.name
-        if at is not None and at > record.iterations:
-            raise HadimError(f"--at {at} is beyond run {run}'s {record.iterations} iterations")
+        record = _eval_refusals(st, run, at, chosen, diagnostic)
         if runs.run_kind(record) is runs.RunKind.BASELINE:
-            if animate is not None or exact:
-                raise HadimError("--animate and --exact are diagnostics of the learner's "
-                                 f"controller; run {run} is a baseline run")
             result, session = _eval_baseline(st, record, chosen, at)
         else:
             result, session = _eval_learner(st, record, chosen, at, tuple(exact or ()),
@@ -316,6 +327,26 @@ def eval_cmd(
         render_eval(_console(), result, session.iteration)
         if animate is not None:
             typer.echo(f"wrote {animate}")
+
+
+def _eval_refusals(st, run: str | None, at: int | None, chosen, diagnostic: bool):
+    """The run `eval` evaluates, after every refusal that needs neither the learner nor the
+    agent: `--at` beyond it, a learner's diagnostic on a baseline run, a target the learner's
+    world cannot reach (a baseline's task is checked once its agent's config is read)."""
+    from hadim_cli import runs
+    from hadim_cli.config import stored_config
+    from hadim_cli.evaluation.tasks import check_task
+
+    record = runs.chosen_run(st, run)
+    if at is not None and at > record.iterations:
+        raise HadimError(f"--at {at} is beyond run {record.name}'s {record.iterations} "
+                         "iterations")
+    if runs.run_kind(record) is runs.RunKind.LEARNER:
+        check_task(chosen, stored_config(record.config).world)
+    elif diagnostic:
+        raise HadimError("--animate and --exact are diagnostics of the learner's "
+                         f"controller; run {record.name} is a baseline run")
+    return record
 
 
 def _with_budget(task, budget: int | None):
@@ -346,14 +377,9 @@ def _eval_baseline(st, record, chosen, at: int | None):
 
 
 def _eval_learner(st, record, chosen, at: int | None, exact: tuple[str, ...], animate: bool):
-    """The learner's H on `chosen`; the task is checked against the run's world first, so a
-    target it cannot reach is refused before the session is restored. With `exact` levels
-    the score is a diagnostic, not stored."""
+    """The learner's H on `chosen` (a target it cannot reach was refused by
+    `_eval_refusals`). With `exact` levels the score is a diagnostic, not stored."""
     from hadim_cli import runs
-    from hadim_cli.config import stored_config
-    from hadim_cli.evaluation.tasks import check_task
-
-    check_task(chosen, stored_config(record.config).world)
     from hadim_cli.evaluation.exact import exact_levels
     from hadim_cli.evaluation.runner import evaluate
 

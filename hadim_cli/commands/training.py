@@ -68,15 +68,23 @@ def resume(
     was started for (or --iterations in total)."""
     from hadim_cli import runs
 
+    reader = runs.light_reader(store)
+    if reader is not None:  # a learner's refusals, read with sqlite3 alone (no SQLAlchemy)
+        with reader:
+            record = reader.get_run(run)
+            if runs.run_kind(record) is runs.RunKind.LEARNER:
+                _learner_plan(reader, record, iterations, eval_every, store)
     resumers = {runs.RunKind.LEARNER: _resume_learner, runs.RunKind.BASELINE: resume_baseline}
     with runs.open_store(store, create=False, run=run) as st:
         record = st.get_run(run)
         resumers[runs.run_kind(record)](st, record, iterations, eval_every, store)
 
 
-def _resume_learner(st, record, iterations: int | None, eval_every: int | None,
-                    store_option: str | None) -> None:
-    """`hadim resume` on a learner's run: every refusal before the session is restored."""
+def _learner_plan(st, record, iterations: int | None, eval_every: int | None,
+                  store_option: str | None) -> tuple[int, int]:
+    """The total and evaluation period a learner's run is resumed with, after every refusal
+    that needs no learner: the run already there, `--eval-every` not a multiple of the
+    episode length, a run another live process drives."""
     from hadim_cli import runs
     from hadim_cli.config import stored_config
     from hadim_store.records import RunStatus
@@ -86,14 +94,23 @@ def _resume_learner(st, record, iterations: int | None, eval_every: int | None,
     total = iterations or runs.target_iterations(st, record, default)
     driver.refuse_reached(record.name, record.iterations, total, iterations is not None,
                           store_option)
-    config = stored_config(record.config)
-    every = _eval_every(eval_every, config)
-    driver.refuse_if_locked(st, record.name)
+    every = _eval_every(eval_every, stored_config(record.config))
+    st.refuse_if_locked(record.name)
+    return total, every
+
+
+def _resume_learner(st, record, iterations: int | None, eval_every: int | None,
+                    store_option: str | None) -> None:
+    """`hadim resume` on a learner's run: every refusal before the session is restored."""
+    from hadim_cli import runs
+    from hadim_cli.config import stored_config
+
+    total, every = _learner_plan(st, record, iterations, eval_every, store_option)
     if (note := runs.version_note(record)) is not None:
         typer.echo(note, err=True)
     session = runs.restore_session(st, record)
     driver.drive(st, record.name, session, total, every, store_option, runs.train,
-                 config.evaluation.tasks)
+                 stored_config(record.config).evaluation.tasks)
 
 
 @app.command()

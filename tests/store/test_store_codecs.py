@@ -84,6 +84,38 @@ def test_garbage_refused(blob):
         codecs.decode_array(blob)
 
 
+@pytest.mark.parametrize("codec", [codecs.NPY, codecs.NPY_ZLIB])
+@pytest.mark.parametrize("change", ["cut 1", "cut 4", "cut 5", "cut half", "2 bytes more"])
+def test_a_blob_cut_short_or_padded_is_refused(codec, change):
+    """Bytes lost at the end of a blob (a copy cut short) or added to it: a deflated array
+    whose checksum is cut off still inflates whole, so the stream's end is checked too."""
+    blob = codecs.encode_array(np.arange(100.0), compress=codec == codecs.NPY_ZLIB)
+    if change == "2 bytes more":
+        blob += b"\x00\x01"
+    else:
+        blob = blob[:-(len(blob) // 2 if change == "cut half" else int(change.split()[1]))]
+    with pytest.raises(CodecError):
+        codecs.decode_array(blob, codec)
+
+
+@pytest.mark.parametrize("dtype", ["<f8", ">f4", "<i8", "|u1", "|b1", "<U3", "<c16", "<M8[s]",
+                                   [("x", "<f8"), ("n", "<i4")]])
+@pytest.mark.parametrize("shape", [(), (0,), (7,), (3, 0), (2, 3), (2, 3, 4)])
+@pytest.mark.parametrize("fortran", [False, True])
+def test_arrays_read_back_as_numpy_reads_them(dtype, shape, fortran):
+    """The reader of np.save's usual header agrees with numpy's own, whatever the array."""
+    array = np.asarray(np.random.default_rng(3).integers(0, 9, size=shape)).astype(dtype)
+    if fortran:
+        array = np.asfortranarray(array)
+    blob = codecs.encode_array(array)
+    back = codecs.decode_array(blob)
+    expected = np.lib.format.read_array(io.BytesIO(blob), allow_pickle=False)
+    assert back.dtype == expected.dtype and back.shape == expected.shape
+    assert back.tobytes(order="A") == expected.tobytes(order="A")
+    assert back.flags.f_contiguous == expected.flags.f_contiguous
+    assert not back.flags.writeable
+
+
 def test_bad_zlib_and_unknown_codec_refused():
     with pytest.raises(CodecError, match="zlib"):
         codecs.decode_array(b"not deflated", codecs.NPY_ZLIB)

@@ -65,6 +65,20 @@ def test_lock_without_heartbeat_recovered(store):
     assert store.acquire_lock("run-1", "me").host == "elsewhere"
 
 
+def test_a_live_holder_is_refused_without_writing(store):
+    """`refuse_if_locked`: acquire_lock's refusal of a live holder, with nothing taken."""
+    store.create_run(config={}, seed=1)
+    store.refuse_if_locked("run-1")  # free
+    _set_holder(store, "run-1", pid=1, host="elsewhere", heartbeat=time.time())
+    with pytest.raises(RunLocked, match="run 'run-1' is in use: locked by pid 1 on elsewhere"):
+        store.refuse_if_locked("run-1")
+    for pid, heartbeat in ((_dead_pid(), time.time()), (1, time.time() - 61)):
+        host = None if heartbeat > time.time() - 1 else "elsewhere"
+        _set_holder(store, "run-1", pid=pid, host=host, heartbeat=heartbeat)
+        store.refuse_if_locked("run-1")  # stale: passes, and stays as it was
+        assert store.get_run("run-1").lock.pid == pid
+
+
 def test_heartbeat_and_lost_lock(store):
     store.create_run(config={}, seed=1)
     store.acquire_lock("run-1", "me")
