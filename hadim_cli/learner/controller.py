@@ -72,6 +72,11 @@ class Pursuit:
     """Actions taken so far."""
     first: float = np.inf
     """Its estimate of actions to go before its first action."""
+    places: dict[tuple[int, bytes], tuple[np.ndarray, np.ndarray | None]] = field(
+        default_factory=dict)
+    """Per affordance and its contexts' values other than the relation it acts from, the
+    place and input `places.needed_context` read off its rows (the models do not change
+    during a pursuit)."""
     seen: list[np.ndarray] = field(default_factory=list)
     """The states acted from (bodies' positions in steps, heading in turns: `_key`)."""
     raised: list[float] = field(default_factory=list)
@@ -341,14 +346,17 @@ class Controller:
             if lv.relation is not None:
                 aff = lv.affordance
                 c = self._contexts(aff, obs[None], lv.binding)[0]
-                delta = np.array([step, 0.0])
-                driven = np.array([sl == lv.relation for sl in context_slices(aff)])
-                need, x = needed_context(aff, delta, c, driven,
-                                         zero_eps=self.config.zero_eps,
-                                         k=2 * self.config.k_inverse,
-                                         support=self.pc.context_support,
-                                         agreement=self.pc.agreement)
-                place = need[lv.relation]
+                slices = context_slices(aff)
+                driven = np.array([sl == lv.relation for sl in slices])
+                key = (aff.id, np.delete(c, np.r_[lv.relation]).tobytes())
+                if key not in pursuit.places:
+                    need, x = needed_context(aff, np.array([step, 0.0]), c, driven,
+                                             zero_eps=self.config.zero_eps,
+                                             k=2 * self.config.k_inverse,
+                                             support=self.pc.context_support,
+                                             agreement=self.pc.agreement)
+                    pursuit.places[key] = (need[lv.relation], x)
+                place, x = pursuit.places[key]
                 contact = self.reader.relation_offset
                 if contact is not None:
                     # Bodies act on each other in contact: the place is the relation's
