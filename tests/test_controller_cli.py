@@ -1,7 +1,9 @@
 """The controller as a user meets it: a removed planner key (`--set planner.convoy=true`, or
 one in a config file) is one `error:` line naming it, exit 2, nothing stored; `hadim eval
 RUN --exact LEVEL` imagines levels by the room's physics as a diagnostic that is not stored;
-an unknown level is one `error:` line."""
+an unknown level is one `error:` line; a run of another hadim version is acted for by the
+installed code, which says so in one line; a tool that starts off the robot–target line, on
+a scene nothing was decided on, pushes the target."""
 
 from __future__ import annotations
 
@@ -125,3 +127,21 @@ def _installed() -> str:
     from importlib import metadata
 
     return metadata.version("hadim")
+
+
+@pytest.mark.scenario
+def test_a_tool_that_starts_off_the_robot_target_line_pushes_the_target(tmp_path):
+    """Seed 2 trained for 1500 iterations, on `push-with-tool-side` (a scene no choice of the
+    controller was made on: the robot facing away, the tool off the robot–target line): the
+    controller brings the robot behind the tool, the tool behind the target, and pushes the
+    target toward each point, never touching it with the robot."""
+    store = tmp_path / "tool.sqlite"
+    result = invoke("train", "--iterations", 1500, "--seed", 2, "--eval-every", 0,
+                    "--store", store)
+    assert result.exit_code == 0, result.stderr
+    out = invoke("eval", "run-1", "--task", "push-with-tool-side", "--json", "--store", store)
+    assert out.exit_code == 0, out.stderr
+    points = json.loads(out.stdout)["points"]
+    assert not any(p["contact_failed"] for p in points)
+    assert all(p["error"] <= 0.5 for p in points), [round(p["error"], 2) for p in points]
+    assert sum(p["error"] for p in points) / len(points) <= 0.3
