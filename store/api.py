@@ -549,17 +549,10 @@ class Store:
             row = _checkpoint_row(session, run_id, upto)
             if row is None:
                 return None
-            chain = [row]
-            while chain[-1].base_iteration is not None:
-                base = session.scalar(select(CheckpointRow).where(
-                    CheckpointRow.run_id == run_id,
-                    CheckpointRow.iteration == chain[-1].base_iteration))
-                if base is None or base.iteration >= chain[-1].iteration:
-                    raise StoreError(f"run {name!r}: checkpoint at {chain[-1].iteration} "
-                                     f"continues a missing checkpoint "
-                                     f"({chain[-1].base_iteration})")
-                chain.append(base)
-            chain.reverse()
+            rows = {r.iteration: r for r in session.scalars(
+                select(CheckpointRow).where(CheckpointRow.run_id == run_id))}
+            chain = [rows[it] for it in deltas.chain_to(
+                row.iteration, {it: r.base_iteration for it, r in rows.items()}, name)]
             levels: dict[int, dict[str, deltas.ItemRow]] = {c.id: {} for c in chain}
             items = session.scalars(
                 select(CheckpointItem)

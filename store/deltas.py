@@ -171,6 +171,20 @@ def _tail_value(row: ItemRow) -> Any:
     return codecs.decode_array(row.data, row.kind) if row.data is not None else None
 
 
+def chain_to(last: int, bases: Mapping[int, int | None], run: str) -> list[int]:
+    """The iterations of the checkpoints read to restore the one at ``last``, oldest (its full
+    snapshot) first, following each delta's base (``bases``: each checkpoint's, None for a
+    snapshot); a base that is missing or not older is a `StoreError` naming ``run``."""
+    chain = [last]
+    while (base := bases[chain[-1]]) is not None:
+        if base not in bases or base >= chain[-1]:
+            raise StoreError(f"run {run!r}: checkpoint at {chain[-1]} continues a missing "
+                             f"checkpoint ({base})")
+        chain.append(base)
+    chain.reverse()
+    return chain
+
+
 def resolve(chain: Sequence[Mapping[str, ItemRow]]) -> tuple[dict[str, np.ndarray],
                                                               dict[str, Any]]:
     """The values of the newest checkpoint of `chain` (oldest first, a full snapshot first):

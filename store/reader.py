@@ -20,7 +20,7 @@ from pathlib import Path
 from typing import Any
 
 from hadim_store import codecs, deltas, locking, migrations
-from hadim_store.errors import RunLocked, StoreError, unknown_run
+from hadim_store.errors import RunLocked, unknown_run
 from hadim_store.records import (
     Checkpoint,
     EpisodeRecord,
@@ -191,13 +191,7 @@ class StoreReader:
         found = [it for it in rows if upto is None or it <= upto]
         if not found:
             return None
-        chain = [max(found)]
-        while (base := rows[chain[-1]][3]) is not None:
-            if base not in rows or base >= chain[-1]:
-                raise StoreError(f"run {name!r}: checkpoint at {chain[-1]} continues a missing "
-                                 f"checkpoint ({base})")
-            chain.append(base)
-        chain.reverse()
+        chain = deltas.chain_to(max(found), {it: row[3] for it, row in rows.items()}, name)
         ids = [rows[it][0] for it in chain]
         levels: dict[int, dict[str, deltas.ItemRow]] = {cid: {} for cid in ids}
         items = self._conn.execute(

@@ -22,9 +22,11 @@ trip.
 Hard constraints prune imagined actions: bodies may touch, never overlap (by more than
 `clearance`, for the models' error); the entity a binding forbids (the target, while a tool
 moves it) is kept `clearance` clear of; moving apart is always allowed (how a robot wedged
-beside an object gets out); every body stays inside the world's bounds. A pursuit whose
-estimate has not reached a new low for `stall` actions is given up. The controller draws
-no random numbers and changes nothing in the learner.
+beside an object gets out); every body stays inside the world's bounds. Where every action
+looks no better than standing still, the pursuit learns that its estimate there falls short
+and raises it (learning real-time search), so the search walks out of the hollow; a
+pursuit ends at its budget, or once it lost ground since it began and cannot finish in the
+actions left. The controller draws no random numbers and changes nothing in the learner.
 """
 
 from __future__ import annotations
@@ -72,6 +74,9 @@ class Pursuit:
     """Actions taken so far."""
     first: float = np.inf
     """Its estimate of actions to go before its first action."""
+    levels: tuple[Level, ...] | None = None
+    """Its chain (`Controller.chain`), found at its first action: H does not change during
+    a pursuit."""
     places: dict[tuple[int, bytes], tuple[np.ndarray, np.ndarray | None]] = field(
         default_factory=dict)
     """Per affordance and its contexts' values other than the relation it acts from, the
@@ -233,13 +238,13 @@ class Controller:
         dist = float(np.linalg.norm(pursuit.goal - self._value(aff.output, obs, b)))
         if dist <= max(self.config.reach_tolerance * pursuit.start, self.config.zero_eps):
             return None
+        if pursuit.used >= pursuit.budget:
+            return None
         plan = self._plan(obs, pursuit)
         if plan is None:
             return None
         now, gaps, label = self._to_go(obs[None], plan, trace=True)
         here = float(now[0]) + float(self._raised(obs[None], plan, pursuit)[0])
-        if pursuit.used >= pursuit.budget:
-            return None
         if pursuit.used == 0:
             pursuit.first = here
         elif here > pursuit.budget - pursuit.used and here > pursuit.first:
@@ -334,7 +339,9 @@ class Controller:
         return max(found, key=lambda a: a.competence, default=None)
 
     def _plan(self, obs: np.ndarray, pursuit: Pursuit) -> _Plan | None:
-        levels = self.chain(pursuit.affordance, pursuit.binding)
+        if pursuit.levels is None:
+            pursuit.levels = self.chain(pursuit.affordance, pursuit.binding)
+        levels = pursuit.levels
         if levels is None:
             return None
         steps = np.array([self._step(lv.affordance) for lv in levels])
@@ -346,8 +353,7 @@ class Controller:
             if lv.relation is not None:
                 aff = lv.affordance
                 c = self._contexts(aff, obs[None], lv.binding)[0]
-                slices = context_slices(aff)
-                driven = np.array([sl == lv.relation for sl in slices])
+                driven = np.array([sl == lv.relation for sl in context_slices(aff)])
                 key = (aff.id, np.delete(c, np.r_[lv.relation]).tobytes())
                 if key not in pursuit.places:
                     need, x = needed_context(aff, np.array([step, 0.0]), c, driven,
