@@ -73,7 +73,7 @@ class HadimGroup(TyperGroup):
         except click.ClickException as exc:
             typer.echo(f"error: {' '.join(exc.format_message().split())}", err=True)
             sys.exit(exc.exit_code)
-        except click.Abort:
+        except _abort():
             typer.echo("aborted", err=True)
             sys.exit(1)
         sys.exit(code if isinstance(code, int) else 0)
@@ -111,6 +111,16 @@ def _click_exceptions():
     except ImportError:  # an older typer, on click itself
         from click import exceptions
     return exceptions
+
+
+def _abort() -> type[BaseException]:
+    """The exception click raises when a user aborts (typer's own copy keeps it beside its
+    other exceptions, in `typer.exceptions`)."""
+    try:
+        from typer.exceptions import Abort
+    except ImportError:  # an older typer, on click itself
+        from click.exceptions import Abort
+    return Abort
 
 
 def _say_damaged(exc: BaseException) -> None:

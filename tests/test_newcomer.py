@@ -380,3 +380,12 @@ def test_a_timeline_too_wide_for_80_columns_keeps_its_borders_and_its_words():
     assert table and all(line[-1] in "┃│┓┩┘" for line in table), text
     words = set(text.split())
     assert {"target-robot", "−target.position", "+robot.heading", "A5"} <= words, text
+
+
+def test_help_into_a_pipe_closed_early_is_no_traceback():
+    """`hadim --help | head -3`: the reader goes away after a few lines; hadim stops without
+    a traceback (click's abort, raised on a broken pipe, is caught where typer keeps it)."""
+    shell = subprocess.run(f"'{HADIM}' --help | head -3", shell=True, capture_output=True,
+                           text=True, timeout=60)
+    assert "Usage" in shell.stdout
+    assert "Traceback" not in shell.stderr, shell.stderr
