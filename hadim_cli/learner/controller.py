@@ -121,6 +121,19 @@ class _Plan:
     inputs: list[np.ndarray | None]
 
 
+class _Found(NamedTuple):
+    """What one search found: the command to take (None: none allowed) and its sequence's
+    estimated actions; the estimate from the observation (`now`), what the pursuit learned
+    raises it by there, and each level's gap and the label for the trace."""
+
+    action: np.ndarray | None
+    predicted: float
+    now: float
+    raised: float
+    gaps: tuple[float, ...]
+    label: str
+
+
 def _rotate(v: np.ndarray, u: np.ndarray) -> np.ndarray:
     """`v` (2,) turned from (1, 0) to each unit direction of `u` (M, 2)."""
     return np.stack([u[:, 0] * v[0] - u[:, 1] * v[1], u[:, 1] * v[0] + u[:, 0] * v[1]], 1)
@@ -214,6 +227,9 @@ class Controller:
         layout = reader.layout
         self._positions = np.array([layout.space(e, Property.POSITION).start
                                     for e in layout.entities])
+        self._position_columns = self._positions[:, None] + np.arange(2)
+        self._radius_columns = np.array([layout.space(e, Property.RADIUS).start
+                                         for e in layout.entities])
         bounds = layout.space(layout.entities[0], Property.POSITION)
         self._low, self._high = np.asarray(bounds.low), np.asarray(bounds.high)
 
@@ -243,25 +259,24 @@ class Controller:
         plan = self._plan(obs, pursuit)
         if plan is None:
             return None
-        now, gaps, label = self._to_go(obs[None], plan, trace=True)
-        here = float(now[0]) + float(self._raised(obs[None], plan, pursuit)[0])
+        found = self._search(obs, plan, pursuit)
+        here = found.now + found.raised
         if pursuit.used == 0:
             pursuit.first = here
         elif here > pursuit.budget - pursuit.used and here > pursuit.first:
             return None  # lost ground since it began, and not expected within the actions left
-        chosen = self._search(obs, plan, pursuit)
-        if chosen is None:
+        if found.action is None:
             return None
-        action, predicted = chosen
         # What the estimate here fell short by is learned, so that a state the search keeps
         # coming back to looks as far as it proved to be.
-        if predicted > here + 1e-9:
+        if found.predicted > here + 1e-9:
             pursuit.seen.append(self._key(obs[None], plan)[0])
-            pursuit.raised.append(predicted - float(now[0]))
+            pursuit.raised.append(found.predicted - found.now)
         pursuit.used += 1
         if self.observer is not None:
-            self.observer(Decision(action.copy(), float(now[0]), predicted, label, gaps))
-        return action
+            self.observer(Decision(found.action.copy(), found.now, found.predicted, found.label,
+                                   found.gaps))
+        return found.action
 
     def reach(self, aff: Affordance, binding: Binding, goal: np.ndarray, actuator: Actuator,
               budget: int) -> Attempt:
@@ -386,10 +401,14 @@ class Controller:
             stand_in = self.stand_ins.get(aff.input.name)
             if stand_in is not None:
                 y = stand_in(x, before, np.array([lv.moved, lv.mover]))
+            elif lv.mover >= 0 and aff.input.prop is Property.POSITION:
+                # Only a mover that reaches the body moves it: the rest are not asked.
+                y = np.zeros((x.shape[0], aff.model.dy))
+                hit = np.flatnonzero(self._reaches(before, lv, x))
+                if hit.size:
+                    y[hit] = aff.model.predict(x[hit], None if c is None else c[hit])
             else:
                 y = aff.model.predict(x, c)
-                if lv.mover >= 0 and lv.affordance.input.prop is Property.POSITION:
-                    y = np.where(self._reaches(before, lv, x)[:, None], y, 0.0)
             self._write(after, lv.moved, aff.output.prop, y)
             x = y
         bottom = plan.levels[-1]
@@ -429,35 +448,35 @@ class Controller:
 
     def _bodies(self, arr: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """Every entity's position (M, E, 2) and radius (M, E) in `arr`."""
-        cols = self._positions[:, None] + np.arange(2)
-        lay = self.reader.layout
-        radii = np.stack([arr[:, lay.space(e, Property.RADIUS).start] for e in lay.entities], 1)
-        return arr[:, cols], radii
+        return arr[:, self._position_columns], arr[:, self._radius_columns]
 
     def _allowed(self, before: np.ndarray, after: np.ndarray, levels: tuple[Level, ...]
                  ) -> np.ndarray:
         """The hard constraints: see the module doc."""
         p0, radii = self._bodies(before)
         p1, _ = self._bodies(after)
-        clearance = self.pc.clearance
-        forbidden = {frozenset((lv.mover if lv.mover >= 0 else lv.moved, lv.binding.avoid))
-                     for lv in levels if lv.binding.avoid >= 0}
-        ok = np.ones(before.shape[0], dtype=bool)
         moved = np.flatnonzero(np.any(np.abs(p1 - p0) > 1e-9, axis=(0, 2)))
-        for i in moved:
-            for j in range(p0.shape[1]):
-                if j == i:
-                    continue
-                touch = radii[:, i] + radii[:, j]
-                d0 = np.linalg.norm(p0[:, i] - p0[:, j], axis=1)
-                d1 = np.linalg.norm(p1[:, i] - p1[:, j], axis=1)
-                # Bodies may touch, never overlap; the entity a binding forbids its mover
-                # is kept clear of. Moving apart is always allowed.
-                least = touch + clearance if frozenset((i, j)) in forbidden else touch - clearance
-                ok &= (d1 >= least) | (d1 >= d0 - 1e-6)
-            inside = ((p1[:, i] - radii[:, i, None] >= self._low)
-                      & (p1[:, i] + radii[:, i, None] <= self._high)).all(1)
-            ok &= inside | (np.abs(p1[:, i]).max(1) <= np.abs(p0[:, i]).max(1))
+        ok = np.ones(before.shape[0], dtype=bool)
+        if moved.size == 0:
+            return ok
+        # Bodies may touch, never overlap; the entity a binding forbids its mover is kept
+        # clear of. Moving apart is always allowed.
+        forbidden = np.zeros((moved.size, p0.shape[1]), dtype=bool)
+        for lv in levels:
+            if lv.binding.avoid >= 0:
+                pair = (lv.mover if lv.mover >= 0 else lv.moved, lv.binding.avoid)
+                for i, j in (pair, pair[::-1]):
+                    forbidden[moved == i, j] = True
+        least = (radii[:, moved, None] + radii[:, None, :]
+                 + np.where(forbidden, self.pc.clearance, -self.pc.clearance))
+        d0 = np.linalg.norm(p0[:, moved, None] - p0[:, None], axis=3)
+        d1 = np.linalg.norm(p1[:, moved, None] - p1[:, None], axis=3)
+        fine = (d1 >= least) | (d1 >= d0 - 1e-6)
+        fine[:, np.arange(moved.size), moved] = True  # a body and itself
+        ok &= fine.all(axis=(1, 2))
+        q0, q1, r = p0[:, moved], p1[:, moved], radii[:, moved, None]
+        inside = ((q1 - r >= self._low) & (q1 + r <= self._high)).all(2)
+        ok &= (inside | (np.abs(q1).max(2) <= np.abs(q0).max(2))).all(1)
         return ok
 
     # ------------------------------------------------------------------ the cost
@@ -541,32 +560,37 @@ class Controller:
         return _line_angle(heading, u) / plan.turn
 
     # ------------------------------------------------------------------ the search
-    def _search(self, obs: np.ndarray, plan: _Plan, pursuit: Pursuit
-                ) -> tuple[np.ndarray, float] | None:
-        """The first command of the sequence (at most `horizon` deep, `beam` kept per depth)
-        whose imagined end has the least actions used plus estimated to go (the estimate
-        raised where the pursuit learned it falls short), with that total; None when the
-        constraints allow no command."""
+    def _search(self, obs: np.ndarray, plan: _Plan, pursuit: Pursuit) -> _Found:
+        """The estimate from `obs`, and the first command of the sequence (at most `horizon`
+        deep, `beam` kept per depth) whose imagined end has the least actions used plus
+        estimated to go (the estimate raised where the pursuit learned it falls short), with
+        that total; no command when the constraints allow none. The observation is costed
+        with its first successors, in one pass."""
         n = self.commands.shape[0]
-        states = obs[None]
-        first = np.zeros(1, dtype=np.int64)
-        best: tuple[float, int, float] | None = None
+        after, ok = self._imagine(obs[None], plan)
+        after, origin = after[ok], np.flatnonzero(ok)
+        rows = np.concatenate([obs[None], after])
+        estimate, gaps, label = self._to_go(rows, plan, trace=True)
+        raised = self._raised(rows, plan, pursuit)
+        now, here_raised = float(estimate[0]), float(raised[0])
+        to_go = estimate[1:] + raised[1:]
+        best: tuple[float, int] | None = None
         for depth in range(1, self.pc.horizon + 1):
-            after, ok = self._imagine(states, plan)
-            origin = np.arange(n) if depth == 1 else np.repeat(first, n)
-            if not ok.any():
+            if depth > 1:
+                after, ok = self._imagine(states, plan)
+                after, origin = after[ok], np.repeat(first, n)[ok]
+                to_go = self._to_go(after, plan) + self._raised(after, plan, pursuit)
+            if after.shape[0] == 0:
                 break
-            after, origin = after[ok], origin[ok]
-            to_go = self._to_go(after, plan) + self._raised(after, plan, pursuit)
             total = depth + to_go
             i = int(np.argmin(total))
             if best is None or total[i] < best[0] - 1e-9:
-                best = (float(total[i]), int(origin[i]), float(to_go[i]))
+                best = (float(total[i]), int(origin[i]))
             keep = np.argsort(total, kind="stable")[:self.pc.beam]
             states, first = after[keep], origin[keep]
         if best is None:
-            return None
-        return self.commands[best[1]].copy(), best[0]
+            return _Found(None, np.inf, now, here_raised, gaps, label)
+        return _Found(self.commands[best[1]].copy(), best[0], now, here_raised, gaps, label)
 
     def _key(self, arr: np.ndarray, plan: _Plan) -> np.ndarray:
         """Where the chain's bodies are in each observation of `arr`, in actions: positions

@@ -37,7 +37,7 @@ Micro-benchmark: ``python -m hadim_cli.learner.models``.
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 from typing import Any, Protocol, runtime_checkable
 
@@ -292,10 +292,12 @@ class LocalLinearModel:
         self._data = np.empty((0, self._width))
         self._n = 0
         self._scale_cache: tuple[int, SpaceScale] | None = None
-        self._answers: dict[tuple, InverseResult] = {}
-        """Recent answers of `infer` by arguments, for the rows [0, `_answered_at`): the
-        planner asks the same question again from the same observation (a step retried,
-        the inverse answer of a trip's last step), and the model only changes by `add`."""
+        self._answers: dict[tuple, Any] = {}
+        """Recent answers of `predict` and `infer` by their arguments' bytes, least recently
+        asked first, for the rows [0, `_answered_at`): the controller asks the same question
+        again (every command from the same context, the inverse answer from the same
+        observation), and the model only changes by `add` or an index rebuilt (which forget
+        them)."""
         self._answered_at = 0
         n_spaces = len(self._dims)
         xc = np.arange(self.dx + self.dc)
@@ -369,7 +371,10 @@ class LocalLinearModel:
     # ------------------------------------------------------------------ forward model
     def predict(self, x: np.ndarray, c: np.ndarray | None = None) -> np.ndarray:
         """Forward model M_A: predicted outcomes (Q, dy) of inputs x (Q, dx) in contexts c."""
-        return self._fit_at(x, c).value
+        x = self._rows(x, self.dx, "x")
+        c = self._contexts(c, x.shape[0])
+        key = ("predict", x.shape, x.tobytes(), c.tobytes())
+        return self._remembered(key, lambda: self._fit_at(x, c).value).copy()
 
     def jacobian(self, x: np.ndarray, c: np.ndarray | None = None) -> np.ndarray:
         """Local dy/dx (Q, dy, dx) of the forward model at (x, c), from the same local fits."""
@@ -465,19 +470,25 @@ class LocalLinearModel:
         scored in `c`; without, in y alone, each candidate scored in its neighbour's context.
         """
         self._require_data()
-        key = (np.asarray(y_goal, dtype=np.float64).tobytes(),
+        key = ("infer", np.asarray(y_goal, dtype=np.float64).tobytes(),
                None if c is None else np.asarray(c, dtype=np.float64).tobytes(), n_candidates)
+        known = self._remembered(key, lambda: self._infer(y_goal, c, n_candidates))
+        return InverseResult(known.x.copy(), known.y_predicted.copy(), known.error,
+                             known.context.copy(), known.neighbour_index)
+
+    def _remembered(self, key: tuple, answer: Callable[[], Any]) -> Any:
+        """The answer to the question `key`: the one remembered, else `answer()` (remembered;
+        the least recently asked of `_KEPT_ANSWERS` forgotten)."""
         if self._answered_at != self._n:
             self._answers.clear()
             self._answered_at = self._n
-        known = self._answers.get(key)
+        known = self._answers.pop(key, None)
         if known is None:
-            known = self._infer(y_goal, c, n_candidates)
+            known = answer()
             if len(self._answers) >= _KEPT_ANSWERS:
                 self._answers.pop(next(iter(self._answers)))
-            self._answers[key] = known
-        return InverseResult(known.x.copy(), known.y_predicted.copy(), known.error,
-                             known.context.copy(), known.neighbour_index)
+        self._answers[key] = known
+        return known
 
     def _infer(self, y_goal: np.ndarray, c: np.ndarray | None, n_candidates: int | None
                ) -> InverseResult:
@@ -626,6 +637,7 @@ class LocalLinearModel:
         index.buffer = np.empty((0, index.columns.size))
         index.buffer_tree = None
         index.n_built, index.checked = n_rows, checked
+        self._answers.clear()
 
     # ------------------------------------------------------------------ state
     def state(self) -> dict[str, np.ndarray]:
@@ -667,6 +679,7 @@ class LocalLinearModel:
         among from then on."""
         self.k_choices = tuple(int(k) for k in choices)
         k = state["k"]
+        self._answers.clear()
         # States saved before neighbourhoods were chosen hold four values or fewer.
         if k.size > 5:
             self.k_fit, self._chosen_at = int(k[4]), int(k[5])
