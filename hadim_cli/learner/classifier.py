@@ -3,10 +3,17 @@
 A small binary torch MLP (features → hidden → hidden → 1, ReLU, BCE on logits) over an
 object's properties (radius, height, colour, shape, … already scaled to about [0, 1] by the
 caller), trained on balanced replay: one FIFO buffer of positive examples and one of negatives,
-every batch half of each. Everything runs in float64 on the CPU with plain Linear/ReLU ops, so
+every batch half of each. Everything runs in float64 on the CPU with plain linear/ReLU ops, so
 that the same inputs and generator states give bit-identical weights (nothing global is set:
 not the torch seed, not deterministic-algorithms mode, not the thread count: a `Session`
 sets that when it starts).
+
+The weights are views of one flat tensor, and a training step computes its gradients with
+the very ops torch's autograd runs for these layers (`addmm`'s, `threshold_backward`, the
+logits loss's), then takes one Adam step over the flat tensor: the same weights, bit for bit,
+as `nn.Linear` layers under autograd and a per-layer Adam (`tests/learner/
+test_classifier.py` checks it), without building a graph or looping over six tensors each of
+the session's ten thousand steps.
 
 Randomness: the initial weights come from a `torch.Generator` seeded with one integer drawn
 from the numpy generator given to the constructor; batches are drawn with the numpy generator
@@ -19,7 +26,6 @@ from typing import Any
 
 import numpy as np
 import torch
-from torch import nn
 
 DTYPE = torch.float64
 """Weights and computations in float64: as fast as float32 at this size, and less fragile."""
@@ -50,12 +56,11 @@ class VisualClassifier:
                  replay_size: int = 2000, batch_size: int = 64, rng: np.random.Generator):
         self._setup(n_features, hidden, lr, replay_size, batch_size)
         g = torch.Generator().manual_seed(int(rng.integers(2**63 - 1)))
-        with torch.no_grad():
-            for layer in self._linears():
-                # torch's default Linear init, drawn from our generator.
-                bound = 1.0 / float(np.sqrt(layer.in_features))
-                layer.weight.uniform_(-bound, bound, generator=g)
-                layer.bias.uniform_(-bound, bound, generator=g)
+        for w, b in self._layers():
+            # torch's default Linear init, drawn from our generator.
+            bound = 1.0 / float(np.sqrt(w.shape[1]))
+            w.uniform_(-bound, bound, generator=g)
+            b.uniform_(-bound, bound, generator=g)
 
     def _setup(self, n_features: int, hidden: int, lr: float, replay_size: int,
                batch_size: int) -> None:
@@ -64,16 +69,18 @@ class VisualClassifier:
                              "and lr > 0")
         self.n_features, self.hidden, self.lr = int(n_features), int(hidden), float(lr)
         self.replay_size, self.batch_size = int(replay_size), int(batch_size)
-        # skip_init builds the layers without touching the global torch RNG.
-        self.net = nn.Sequential(
-            nn.utils.skip_init(nn.Linear, self.n_features, self.hidden, dtype=DTYPE),
-            nn.ReLU(),
-            nn.utils.skip_init(nn.Linear, self.hidden, self.hidden, dtype=DTYPE),
-            nn.ReLU(),
-            nn.utils.skip_init(nn.Linear, self.hidden, 1, dtype=DTYPE),
-        )
-        self.optimizer = torch.optim.Adam(self.net.parameters(), lr=self.lr, foreach=False)
-        self._loss = nn.BCEWithLogitsLoss()
+        shapes = {"0.weight": (self.hidden, self.n_features), "0.bias": (self.hidden,),
+                  "2.weight": (self.hidden, self.hidden), "2.bias": (self.hidden,),
+                  "4.weight": (1, self.hidden), "4.bias": (1,)}
+        self._flat = torch.zeros(sum(int(np.prod(v)) for v in shapes.values()), dtype=DTYPE)
+        self._params: dict[str, torch.Tensor] = {}
+        """The layers' weights and biases by `nn.Sequential` name: views of `_flat`."""
+        start = 0
+        for name, shape in shapes.items():
+            size = int(np.prod(shape))
+            self._params[name] = self._flat[start:start + size].view(shape)
+            start += size
+        self.optimizer = torch.optim.Adam([self._flat], lr=self.lr, foreach=False)
         self._positives = np.zeros((0, self.n_features), dtype=np.float64)
         self._negatives = np.zeros((0, self.n_features), dtype=np.float64)
         self.n_positive = 0
@@ -83,8 +90,44 @@ class VisualClassifier:
         self.train_steps = 0
         """Optimiser steps taken so far."""
 
-    def _linears(self) -> list[nn.Linear]:
-        return [m for m in self.net if isinstance(m, nn.Linear)]
+    def _slices(self) -> dict[str, slice]:
+        out, start = {}, 0
+        for name, p in self._params.items():
+            out[name] = slice(start, start + p.numel())
+            start += p.numel()
+        return out
+
+    def _layers(self) -> list[tuple[torch.Tensor, torch.Tensor]]:
+        p = self._params
+        return [(p["0.weight"], p["0.bias"]), (p["2.weight"], p["2.bias"]),
+                (p["4.weight"], p["4.bias"])]
+
+    def _forward(self, x: torch.Tensor) -> list[torch.Tensor]:
+        """Each layer's input and the logits: [x, h1, h2, logits]."""
+        out = [x]
+        for i, (w, b) in enumerate(self._layers()):
+            z = torch.addmm(b, out[-1], w.t())  # what `F.linear` runs for a 2-D input
+            out.append(torch.relu(z) if i < 2 else z)
+        return out
+
+    def _step(self, batch: torch.Tensor, target: torch.Tensor) -> torch.Tensor:
+        """One Adam step on `batch`; its loss. The gradients are autograd's for these ops:
+        addmm's (bias: the sum over rows; weight: gradᵀ·input; input: grad·weight), ReLU's
+        `threshold_backward` on its output, and the mean logits loss's (σ(z) − y) / N."""
+        acts = self._forward(batch)
+        logits = acts[-1]
+        loss = torch.nn.functional.binary_cross_entropy_with_logits(logits, target)
+        grad = (torch.sigmoid(logits) - target).div_(logits.numel())
+        grads: list[torch.Tensor] = []
+        for i in (2, 1, 0):
+            w, _ = self._layers()[i]
+            grads[:0] = [grad.t().mm(acts[i]).reshape(-1), grad.sum(0)]
+            if i:
+                grad = torch.ops.aten.threshold_backward(grad.mm(w), acts[i], 0)
+        self._flat.grad = torch.cat(grads)
+        self.optimizer.step()
+        self._flat.grad = None
+        return loss
 
     # ------------------------------------------------------------------ data and training
     def add(self, features: np.ndarray, labels: np.ndarray) -> None:
@@ -111,16 +154,10 @@ class VisualClassifier:
         target = torch.cat([torch.ones(half, 1, dtype=DTYPE),
                             torch.zeros(self.batch_size - half, 1, dtype=DTYPE)])
         total = torch.zeros((), dtype=DTYPE)
-        self.net.train()
         for _ in range(steps):
             idx = np.concatenate([rng.integers(n_pos, size=half),
                                   n_pos + rng.integers(n_neg, size=self.batch_size - half)])
-            batch = data[torch.from_numpy(idx)]
-            self.optimizer.zero_grad(set_to_none=True)
-            loss = self._loss(self.net(batch), target)
-            loss.backward()
-            self.optimizer.step()
-            total += loss.detach()
+            total += self._step(data[torch.from_numpy(idx)], target)
         self.train_steps += steps
         return float(total) / steps
 
@@ -135,9 +172,7 @@ class VisualClassifier:
             elif self.n_negative > 0 and self.n_positive == 0:
                 prior = 0.0
             return np.full(x.shape[0], prior)
-        self.net.eval()
-        with torch.no_grad():
-            p = torch.sigmoid(self.net(torch.from_numpy(x)))
+        p = torch.sigmoid(self._forward(torch.from_numpy(x))[-1])
         return p.numpy().reshape(-1).astype(np.float64)
 
     def accepts(self, features: np.ndarray, threshold: float = 0.5) -> np.ndarray:
@@ -158,12 +193,13 @@ class VisualClassifier:
             "replay.positive": self._positives.copy(),
             "replay.negative": self._negatives.copy(),
         }
-        for name, p in self.net.named_parameters():
-            out[f"weight.{name}"] = p.detach().numpy().copy()
-            st = self.optimizer.state.get(p)
+        st = self.optimizer.state.get(self._flat)
+        for (name, p), sl in zip(self._params.items(), self._slices().values(), strict=True):
+            out[f"weight.{name}"] = p.numpy().copy()
             if st:
-                out[f"adam.{name}.exp_avg"] = st["exp_avg"].numpy().copy()
-                out[f"adam.{name}.exp_avg_sq"] = st["exp_avg_sq"].numpy().copy()
+                out[f"adam.{name}.exp_avg"] = st["exp_avg"][sl].reshape(p.shape).numpy().copy()
+                out[f"adam.{name}.exp_avg_sq"] = \
+                    st["exp_avg_sq"][sl].reshape(p.shape).numpy().copy()
                 out[f"adam.{name}.step"] = np.array(float(st["step"]), dtype=np.float64)
         return out
 
@@ -195,17 +231,23 @@ class VisualClassifier:
         self.n_positive, self.n_negative, self.train_steps = n_pos, n_neg, steps
         self._positives = _as_features(state["replay.positive"], self.n_features).copy()
         self._negatives = _as_features(state["replay.negative"], self.n_features).copy()
-        with torch.no_grad():
-            for name, p in self.net.named_parameters():
-                p.copy_(torch.from_numpy(np.array(state[f"weight.{name}"], dtype=np.float64)))
-        opt_state = {}
-        for i, (name, _) in enumerate(self.net.named_parameters()):
-            if f"adam.{name}.step" not in state:
-                continue
-            opt_state[i] = {
-                "step": torch.tensor(float(state[f"adam.{name}.step"]), dtype=torch.float32),
-                "exp_avg": torch.from_numpy(np.array(state[f"adam.{name}.exp_avg"])),
-                "exp_avg_sq": torch.from_numpy(np.array(state[f"adam.{name}.exp_avg_sq"])),
-            }
+        for name, p in self._params.items():
+            weight = np.array(state[f"weight.{name}"], dtype=np.float64)
+            if weight.shape != tuple(p.shape):
+                raise ValueError(f"weight.{name} has shape {weight.shape}, not {tuple(p.shape)}")
+            p.copy_(torch.from_numpy(weight))
+        names = list(self._params)
+        if all(f"adam.{name}.step" in state for name in names):
+            steps = {float(state[f"adam.{name}.step"]) for name in names}
+            if len(steps) != 1:
+                raise ValueError(f"the layers' Adam steps differ: {sorted(steps)}")
+            moments = {m: torch.from_numpy(np.concatenate(
+                [np.array(state[f"adam.{name}.{m}"], dtype=np.float64).reshape(-1)
+                 for name in names])) for m in ("exp_avg", "exp_avg_sq")}
+            if moments["exp_avg"].numel() != self._flat.numel():
+                raise ValueError("the Adam moments do not match the layers")
+            opt_state = {0: {"step": torch.tensor(steps.pop(), dtype=torch.float32), **moments}}
+        else:
+            opt_state = {}
         groups = self.optimizer.state_dict()["param_groups"]
         self.optimizer.load_state_dict({"state": opt_state, "param_groups": groups})

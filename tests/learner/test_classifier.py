@@ -189,3 +189,43 @@ def test_round_trip_before_training_and_mismatched_params() -> None:
     assert restored.n_positive == 3
     with pytest.raises(ValueError, match="hidden"):
         VisualClassifier.from_state(c.state(), hidden=64)
+
+
+def test_training_equals_autograd_and_a_per_layer_adam() -> None:
+    """The classifier's own gradients and one Adam over its flat weights give, bit for bit,
+    what `nn.Linear` layers under autograd and torch's Adam over each layer give from the same
+    weights and batches (computed here with torch's modules, not the classifier's code)."""
+    rng = np.random.default_rng(21)
+    c = VisualClassifier(N_FEATURES, hidden=16, batch_size=32, lr=1e-2, rng=rng)
+    c.add(*toy(rng, 50, 30))
+    c.train(np.random.default_rng(0), steps=3)  # Adam's moments under way on both sides
+    start = c.state()
+    net = torch.nn.Sequential(torch.nn.Linear(N_FEATURES, 16, dtype=torch.float64),
+                              torch.nn.ReLU(), torch.nn.Linear(16, 16, dtype=torch.float64),
+                              torch.nn.ReLU(), torch.nn.Linear(16, 1, dtype=torch.float64))
+    with torch.no_grad():
+        for name, p in net.named_parameters():
+            p.copy_(torch.from_numpy(start[f"weight.{name}"]))
+    adam = torch.optim.Adam(net.parameters(), lr=1e-2)
+    adam.load_state_dict({"state": {i: {
+        "step": torch.tensor(float(start[f"adam.{name}.step"])),
+        "exp_avg": torch.from_numpy(start[f"adam.{name}.exp_avg"].copy()),
+        "exp_avg_sq": torch.from_numpy(start[f"adam.{name}.exp_avg_sq"].copy())}
+        for i, (name, _) in enumerate(net.named_parameters())},
+        "param_groups": adam.state_dict()["param_groups"]})
+    pos, neg = start["replay.positive"], start["replay.negative"]
+    data = torch.from_numpy(np.concatenate([pos, neg]))
+    target = torch.cat([torch.ones(16, 1, dtype=torch.float64),
+                        torch.zeros(16, 1, dtype=torch.float64)])
+    batches = np.random.default_rng(5)
+    for _ in range(40):
+        idx = np.concatenate([batches.integers(len(pos), size=16),
+                              len(pos) + batches.integers(len(neg), size=16)])
+        adam.zero_grad()
+        torch.nn.BCEWithLogitsLoss()(net(data[torch.from_numpy(idx)]), target).backward()
+        adam.step()
+    c.train(np.random.default_rng(5), steps=40)
+    got = c.state()
+    for name, p in net.named_parameters():
+        assert np.array_equal(got[f"weight.{name}"], p.detach().numpy()), name
+        assert np.array_equal(got[f"adam.{name}.exp_avg"], adam.state[p]["exp_avg"].numpy())
