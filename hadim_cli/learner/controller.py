@@ -31,6 +31,7 @@ actions left. The controller draws no random numbers and changes nothing in the 
 
 from __future__ import annotations
 
+import functools
 from collections.abc import Callable
 from dataclasses import dataclass, field
 from typing import NamedTuple
@@ -115,8 +116,10 @@ class _Plan:
     levels: tuple[Level, ...]
     goal: np.ndarray
     steps: np.ndarray
+    turner: Affordance | None
+    """The affordance turning the mover at the bottom (None: it does not turn)."""
     turn: float
-    """The mover at the bottom's typical turn per action (rad; inf: it does not turn)."""
+    """Its typical turn per action (rad; inf: it does not turn)."""
     places: list[np.ndarray | None]
     inputs: list[np.ndarray | None]
 
@@ -228,6 +231,7 @@ class Controller:
         self._positions = np.array([layout.space(e, Property.POSITION).start
                                     for e in layout.entities])
         self._position_columns = self._positions[:, None] + np.arange(2)
+        self._relative_columns = layout.object_columns(Property.RELATIVE)
         self._radius_columns = np.array([layout.space(e, Property.RADIUS).start
                                          for e in layout.entities])
         bounds = layout.space(layout.entities[0], Property.POSITION)
@@ -385,7 +389,7 @@ class Controller:
                     place = place * (contact / max(float(np.linalg.norm(place)), 1e-9))
             places.append(place)
             inputs.append(x)
-        return _Plan(levels, pursuit.goal, steps, turn, places, inputs)
+        return _Plan(levels, pursuit.goal, steps, turner, turn, places, inputs)
 
     # ------------------------------------------------------------------ imagining
     def _imagine(self, arr: np.ndarray, plan: _Plan) -> tuple[np.ndarray, np.ndarray]:
@@ -411,18 +415,15 @@ class Controller:
                 y = aff.model.predict(x, c)
             self._write(after, lv.moved, aff.output.prop, y)
             x = y
-        bottom = plan.levels[-1]
-        turner = self._turner(bottom.moved)
+        bottom, turner = plan.levels[-1], plan.turner
         if turner is not None and turner.output != bottom.affordance.output:
             stand_in = self.stand_ins.get("heading")
             acts = np.tile(self.commands, (arr.shape[0], 1))
             y = (stand_in(acts, before, np.array([0, -1])) if stand_in is not None
                  else turner.model.predict(acts, self._contexts(turner, before, Binding())))
             self._write(after, bottom.moved, Property.HEADING, y)
-        lay = self.reader.layout
-        after[:, lay.object_columns(Property.RELATIVE)] = (
-            after[:, lay.object_columns(Property.POSITION)]
-            - after[:, None, self._positions[0]:self._positions[0] + 2])
+        after[:, self._relative_columns] = (after[:, self._position_columns[1:]]
+                                            - after[:, None, self._position_columns[0]])
         return after, self._allowed(before, after, plan.levels)
 
     def _reaches(self, arr: np.ndarray, lv: Level, x: np.ndarray) -> np.ndarray:
@@ -539,15 +540,13 @@ class Controller:
              levels: tuple[Level, ...]) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """`detour` of `entity` from where it is to `to` round every other body but those
         that move it (they travel with it)."""
-        below = [i for i, lv in enumerate(levels) if lv.moved == entity]
-        movers = {lv.mover for lv in levels[below[0]:]} if below else set()
-        others = [j for j in range(pos.shape[1]) if j != entity and j not in movers]
-        moves = [lv.moved for lv in levels if lv.mover == entity]
+        others, acted_on = _obstacles(tuple((lv.moved, lv.mover) for lv in levels), entity,
+                                      pos.shape[1])
         frm = pos[:, entity]
         to = np.broadcast_to(to, frm.shape)
         keep = radii[:, entity, None] + radii[:, others] + self.pc.clearance
         # The body it acts on is gone round at contact: its place lies just there.
-        keep[:, [j in moves for j in others]] -= self.pc.clearance + 1e-3
+        keep[:, acted_on] -= self.pc.clearance + 1e-3
         return detour(frm, to, pos[:, others], keep)
 
     def _turns(self, arr: np.ndarray, plan: _Plan, entity: int, u: np.ndarray) -> np.ndarray:
@@ -616,6 +615,21 @@ class Controller:
                 - np.pi / plan.turn
         near = np.max(np.abs(diff), axis=2) <= self._fine / 2
         return np.max(np.where(near, np.asarray(pursuit.raised)[None, :], 0.0), axis=1)
+
+
+@functools.lru_cache(maxsize=64)
+def _obstacles(chain: tuple[tuple[int, int], ...], entity: int, n_entities: int
+               ) -> tuple[np.ndarray, np.ndarray]:
+    """The bodies `entity` goes round in a chain of (moved, mover) levels (every other but
+    those that move it: they travel with it), and which of them it acts on (read-only)."""
+    below = [i for i, (moved, _) in enumerate(chain) if moved == entity]
+    movers = {mover for _, mover in chain[below[0]:]} if below else set()
+    others = np.array([j for j in range(n_entities) if j != entity and j not in movers],
+                      dtype=np.int64)
+    moves = {moved for moved, mover in chain if mover == entity}
+    acted_on = np.array([j in moves for j in others], dtype=bool)
+    others.flags.writeable = acted_on.flags.writeable = False
+    return others, acted_on
 
 
 def _complete(levels: tuple[Level, ...]) -> bool:
