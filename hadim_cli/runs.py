@@ -396,27 +396,43 @@ def train(store: Store | None, run: str | None, session: Session, total: int, *,
           on_progress: Callable[[Progress], None] | None = None,
           should_stop: Callable[[], bool] | None = None,
           owner: str | None = None) -> dict[str, float]:
-    """Run `session` to `total` iterations, storing every episode (when a store is given)."""
+    """Run `session` to `total` iterations, storing every episode (when a store is given).
+    Every `eval_every` iterations the learner is evaluated on `tasks` beside the training
+    (`evaluation.beside`); the evaluation under way is waited for before returning."""
+    from hadim_cli.evaluation.beside import Evaluations, Scored
+
     scores: dict[str, float] = {}
     scored_at: list[int] = []
+
+    def scored(result: Scored) -> None:
+        scores[result.task] = result.score
+        scored_at[:] = [result.iteration]
+        if store is not None and run is not None:
+            store.add_evaluation(run, result.iteration, result.task, result.score,
+                                 result.points)
+
+    evaluations = Evaluations(session, tasks, scored)
 
     def after_episode(log: EpisodeLog) -> bool:
         if store is not None and run is not None:
             store.write_episode(run, episode_write(session, log, total), owner=owner)
         it = session.iteration
+        evaluations.poll()
         if eval_every and it % eval_every == 0 and tasks:
-            for name, result in evaluate_tasks(session, tasks).items():
-                scores[name] = result.score
-                scored_at[:] = [it]
-                if store is not None and run is not None:
-                    store.add_evaluation(run, it, name, result.score,
-                                         result.to_dict()["points"])
+            evaluations.start()
+        stopping = bool(should_stop and should_stop())
+        if stopping or it >= total:
+            evaluations.finish()  # nothing left to run beside it
         if on_progress is not None:
             on_progress(Progress(it, total, len(session.learner.hierarchy), dict(scores),
                                  scored_at[0] if scored_at else None))
-        return bool(should_stop and should_stop())
+        return stopping
 
-    session.run(total, after_episode)
+    try:
+        session.run(total, after_episode)
+        evaluations.finish()
+    finally:
+        evaluations.close()
     return scores
 
 
