@@ -10,10 +10,11 @@ sets that when it starts).
 
 The weights are views of one flat tensor, and a training step computes its gradients with
 the very ops torch's autograd runs for these layers (`addmm`'s, `threshold_backward`, the
-logits loss's), then takes one Adam step over the flat tensor: the same weights, bit for bit,
-as `nn.Linear` layers under autograd and a per-layer Adam (`tests/learner/
-test_classifier.py` checks it), without building a graph or looping over six tensors each of
-the session's ten thousand steps.
+logits loss's), then takes one Adam step over the flat tensor with the ops of torch's own
+`Adam` (β = 0.9, 0.999, ε = 1e-8): the same weights, bit for bit, as `nn.Linear` layers under
+autograd and `torch.optim.Adam` over each layer (`tests/learner/test_classifier.py` checks
+it), without building a graph, looping over six tensors, or importing the compiler machinery
+`torch.optim` loads, each of a session's ten thousand steps.
 
 Randomness: the initial weights come from a `torch.Generator` seeded with one integer drawn
 from the numpy generator given to the constructor; batches are drawn with the numpy generator
@@ -29,6 +30,9 @@ import torch
 
 DTYPE = torch.float64
 """Weights and computations in float64: as fast as float32 at this size, and less fragile."""
+
+_BETA1, _BETA2, _EPS = 0.9, 0.999, 1e-8
+"""torch `Adam`'s defaults."""
 
 _HYPER = ("n_features", "hidden", "lr", "replay_size", "batch_size")
 
@@ -80,7 +84,9 @@ class VisualClassifier:
             size = int(np.prod(shape))
             self._params[name] = self._flat[start:start + size].view(shape)
             start += size
-        self.optimizer = torch.optim.Adam([self._flat], lr=self.lr, foreach=False)
+        self._moments: tuple[torch.Tensor, torch.Tensor] | None = None
+        """Adam's first and second moments of the flat weights (None before the first step)."""
+        self._adam_steps = 0
         self._positives = np.zeros((0, self.n_features), dtype=np.float64)
         self._negatives = np.zeros((0, self.n_features), dtype=np.float64)
         self.n_positive = 0
@@ -124,10 +130,22 @@ class VisualClassifier:
             grads[:0] = [grad.t().mm(acts[i]).reshape(-1), grad.sum(0)]
             if i:
                 grad = torch.ops.aten.threshold_backward(grad.mm(w), acts[i], 0)
-        self._flat.grad = torch.cat(grads)
-        self.optimizer.step()
-        self._flat.grad = None
+        self._adam(torch.cat(grads))
         return loss
+
+    def _adam(self, grad: torch.Tensor) -> None:
+        """One Adam step of the flat weights: torch's `Adam` (single-tensor, no weight decay,
+        no amsgrad), op for op."""
+        if self._moments is None:
+            self._moments = (torch.zeros_like(self._flat), torch.zeros_like(self._flat))
+        exp_avg, exp_avg_sq = self._moments
+        self._adam_steps += 1
+        exp_avg.lerp_(grad, 1 - _BETA1)
+        exp_avg_sq.mul_(_BETA2).addcmul_(grad, grad, value=1 - _BETA2)
+        step = float(self._adam_steps)
+        step_size = self.lr / (1 - _BETA1 ** step)
+        denom = (exp_avg_sq.sqrt() / (1 - _BETA2 ** step) ** 0.5).add_(_EPS)
+        self._flat.addcdiv_(exp_avg, denom, value=-step_size)
 
     # ------------------------------------------------------------------ data and training
     def add(self, features: np.ndarray, labels: np.ndarray) -> None:
@@ -193,14 +211,12 @@ class VisualClassifier:
             "replay.positive": self._positives.copy(),
             "replay.negative": self._negatives.copy(),
         }
-        st = self.optimizer.state.get(self._flat)
         for (name, p), sl in zip(self._params.items(), self._slices().values(), strict=True):
             out[f"weight.{name}"] = p.numpy().copy()
-            if st:
-                out[f"adam.{name}.exp_avg"] = st["exp_avg"][sl].reshape(p.shape).numpy().copy()
-                out[f"adam.{name}.exp_avg_sq"] = \
-                    st["exp_avg_sq"][sl].reshape(p.shape).numpy().copy()
-                out[f"adam.{name}.step"] = np.array(float(st["step"]), dtype=np.float64)
+            if self._moments is not None:
+                for moment, values in zip(("exp_avg", "exp_avg_sq"), self._moments, strict=True):
+                    out[f"adam.{name}.{moment}"] = values[sl].reshape(p.shape).numpy().copy()
+                out[f"adam.{name}.step"] = np.array(float(self._adam_steps), dtype=np.float64)
         return out
 
     @classmethod
@@ -241,13 +257,11 @@ class VisualClassifier:
             steps = {float(state[f"adam.{name}.step"]) for name in names}
             if len(steps) != 1:
                 raise ValueError(f"the layers' Adam steps differ: {sorted(steps)}")
-            moments = {m: torch.from_numpy(np.concatenate(
+            moments = tuple(torch.from_numpy(np.concatenate(
                 [np.array(state[f"adam.{name}.{m}"], dtype=np.float64).reshape(-1)
-                 for name in names])) for m in ("exp_avg", "exp_avg_sq")}
-            if moments["exp_avg"].numel() != self._flat.numel():
+                 for name in names])) for m in ("exp_avg", "exp_avg_sq"))
+            if moments[0].numel() != self._flat.numel():
                 raise ValueError("the Adam moments do not match the layers")
-            opt_state = {0: {"step": torch.tensor(steps.pop(), dtype=torch.float32), **moments}}
+            self._moments, self._adam_steps = moments, int(steps.pop())
         else:
-            opt_state = {}
-        groups = self.optimizer.state_dict()["param_groups"]
-        self.optimizer.load_state_dict({"state": opt_state, "param_groups": groups})
+            self._moments, self._adam_steps = None, 0
