@@ -60,11 +60,13 @@ class ArmConfig:
     centre, links joined by motorised pivot joints, a disc end effector (docs/world.md)."""
 
     link_lengths: tuple[float, ...] = (0.6, 0.5, 0.4)
-    """Length of each link from the base outwards (m); one joint and one action component per
-    link. Their sum is the arm's reach."""
-    joint_limits: tuple[float, ...] = (3.141592653589793, 2.5, 2.5)
-    """Each joint turns within ±this of straight (rad, at most π), one per link: the shoulder
-    all round (±π, from the table's +x axis), the elbow and the wrist short of folding back."""
+    """Length of each link from the base outwards (m), at least two; one joint and one action
+    component per link. Their sum is the arm's reach."""
+    joint_limits: tuple[float, ...] = (2.0, 2.0)
+    """How far each joint after the shoulder turns either way from straight (rad, at most π),
+    one per joint from the elbow outwards: short of folding back, so the effector keeps off
+    its base (by default it comes no nearer than 0.20 m). The shoulder turns all round (±π
+    from the table's +x axis), so the arm reaches a whole annulus round its base."""
     max_joint_speed: float = 0.3
     """Joint speed at command 1 (rad/s), the same for every joint."""
     motor_torques: tuple[float, ...] = (80.0, 50.0, 25.0)
@@ -86,14 +88,16 @@ class ArmConfig:
 
     def validate(self) -> None:
         n = len(self.link_lengths)
-        _check(n >= 1, "world.arm.link_lengths", "must hold at least one length",
+        _check(n >= 2, "world.arm.link_lengths", "must hold at least two lengths",
                list(self.link_lengths))
         _check(all(v > 0 for v in self.link_lengths), "world.arm.link_lengths",
                "every length must be > 0", list(self.link_lengths))
-        for name in ("joint_limits", "motor_torques"):
-            values = getattr(self, name)
-            _check(len(values) == n, f"world.arm.{name}",
-                   f"must hold one value per link ({n}, as world.arm.link_lengths)", list(values))
+        _check(len(self.motor_torques) == n, "world.arm.motor_torques",
+               f"must hold one torque per link ({n}, as world.arm.link_lengths)",
+               list(self.motor_torques))
+        _check(len(self.joint_limits) == n - 1, "world.arm.joint_limits",
+               f"must hold one limit per joint after the shoulder ({n - 1}: one less than "
+               "world.arm.link_lengths)", list(self.joint_limits))
         _check(all(0 < v <= math.pi for v in self.joint_limits), "world.arm.joint_limits",
                "every limit must be in (0, π]", list(self.joint_limits))
         _check(all(v > 0 for v in self.motor_torques), "world.arm.motor_torques",
