@@ -69,11 +69,17 @@ class ArmConfig:
     from the table's +x axis), so the arm reaches a whole annulus round its base."""
     max_joint_speed: float = 0.3
     """Joint speed at command 1 (rad/s), the same for every joint."""
-    motor_torques: tuple[float, ...] = (80.0, 50.0, 25.0)
+    motor_torques: tuple[float, ...] = (40.0, 25.0, 12.0)
     """Largest torque each joint's motor exerts (N·m), one per link: enough to push the
-    heaviest green object from any pose, bounded so that a red object stops the arm."""
-    link_mass: float = 1.0
+    heaviest green object (23.1 N of ground friction) in almost every pose and direction,
+    more slowly than a light one; a red object stops the arm."""
+    link_mass: float = 3.0
     """Mass of each link (kg), spread evenly along it."""
+    joint_inertia: float = 1.0
+    """Moment of inertia each joint's motor and gearbox add to the link it turns (kg·m²): in
+    a real arm the rotor's, reflected through the gearing, outweighs the link's own. It also
+    keeps pymunk's chain of joints stiff: with the links' own inertia alone the joints drifted
+    apart by centimetres and past their limits by 0.05 rad (docs/world.md)."""
     effector_radius: float = 0.05
     """Radius of the disc end effector at the tip of the last link (m): the only part of the
     arm that touches the objects (the links pass above them)."""
@@ -106,6 +112,8 @@ class ArmConfig:
                      "base_radius"):
             value = getattr(self, name)
             _check(value > 0, f"world.arm.{name}", "must be > 0", value)
+        _check(self.joint_inertia >= 0, "world.arm.joint_inertia", "must be >= 0",
+               self.joint_inertia)
         room = self.reach + self.effector_radius
         for name in ("table_width", "table_height"):
             value = getattr(self, name)

@@ -28,6 +28,12 @@ def effector_position(link_lengths: tuple[float, ...], joints: np.ndarray) -> np
     return joint_points(link_lengths, joints)[-1]
 
 
+def joint_ranges(joint_limits: tuple[float, ...]) -> tuple[float, ...]:
+    """How far each joint turns either way from straight (rad): the shoulder ±π, the others
+    within their configured limits."""
+    return (math.pi, *joint_limits)
+
+
 def outer_reach(link_lengths: tuple[float, ...]) -> float:
     """Farthest the effector's centre gets from the base: the arm straight (m)."""
     return float(sum(link_lengths))
