@@ -67,8 +67,10 @@ class ArmConfig:
     one per joint from the elbow outwards: short of folding back, so the effector keeps off
     its base (by default it comes no nearer than 0.20 m). The shoulder turns all round (±π
     from the table's +x axis), so the arm reaches a whole annulus round its base."""
-    max_joint_speed: float = 0.3
-    """Joint speed at command 1 (rad/s), the same for every joint."""
+    max_joint_speed: float = 0.12
+    """Joint speed at command 1 (rad/s), the same for every joint: the effector then moves at
+    0.34 m/s at most (the arm straight, every joint at full speed one way), about the rover's
+    0.3 m/s, so that the arm, and what it pushed, come to rest within `settle_time`."""
     motor_torques: tuple[float, ...] = (40.0, 25.0, 12.0)
     """Largest torque each joint's motor exerts (N·m), one per link: enough to push the
     heaviest green object (23.1 N of ground friction) in almost every pose and direction,
@@ -78,8 +80,9 @@ class ArmConfig:
     joint_inertia: float = 1.0
     """Moment of inertia each joint's motor and gearbox add to the link it turns (kg·m²): in
     a real arm the rotor's, reflected through the gearing, outweighs the link's own. It also
-    keeps pymunk's chain of joints stiff: with the links' own inertia alone the joints drifted
-    apart by centimetres and past their limits by 0.05 rad (docs/world.md)."""
+    keeps pymunk's chain of joints stiff: with the links' own inertia alone (0.09 kg·m² at
+    most) the effector strayed up to 5 mm from where its joint angles put it; with 1, 0.3 mm
+    (docs/world.md)."""
     effector_radius: float = 0.05
     """Radius of the disc end effector at the tip of the last link (m): the only part of the
     arm that touches the objects (the links pass above them)."""

@@ -82,7 +82,11 @@ def info(
 
     table = Table(title=f"scene of seed {seed}")
     for column in ("entity", "kind", "x m", "y m", "radius m", "height m", "mass kg", "colour"):
-        table.add_column(column, justify="left" if column in ("entity", "kind") else "right")
+        if column in ("entity", "kind"):
+            widest = max(len(str(row[column])) for row in rows)
+            table.add_column(column, no_wrap=True, min_width=widest)
+        else:
+            table.add_column(column, justify="right")
     for row in rows:
         mass = ("fixed" if row["kind"] == "red" else "–" if row["mass"] is None
                 else f"{row['mass']:.3f}")

@@ -141,12 +141,16 @@ class ArmWorld(Environment[ArmScene, ArmPhysics]):
     def observe(self) -> np.ndarray:
         obs, n = self._obs, self._n
         poses = self._require_physics().poses.poses()
-        angles = poses[:n, 2]
-        x, y, angle = poses[n - 1].tolist()
+        links = poses[:n].tolist()
+        joints, inner = [], 0.0
+        for _, _, angle in links:  # plain floats: cheaper than numpy at this size
+            joints.append(angle - inner)
+            inner = angle
+        x, y, angle = links[-1]
         tip = (x + self._last_length * math.cos(angle), y + self._last_length * math.sin(angle))
         centers = poses[n:, :2]
         obs[self._effector_pos] = tip
-        obs[self._joints] = np.diff(angles, prepend=0.0)
+        obs[self._joints] = joints
         obs[self._obj_pos] = centers
         obs[self._obj_rel] = centers - tip
         return obs.copy()

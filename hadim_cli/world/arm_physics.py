@@ -30,20 +30,11 @@ from hadim_cli.world.physics import (
 )
 from hadim_cli.world.scene import ArmScene
 
-SOLVER_ITERATIONS = 20
-"""pymunk's solver passes per physics step (its default, 10, serves the room). The arm is a
-chain: a motor's torque, or an object's push on the effector, reaches the far links through
-every pivot in turn, and with 10 passes an arm pressed against a red object near full
-stretch let its joints drift ~1.1 mm apart."""
 JOINT_ERROR_BIAS = 0.5 ** 60
 """Share of a joint's error (a pivot's gap, an angle past a limit) left after one second: half
-of it corrected at every step of 1/60 s. pymunk's default (0.9^60, a tenth per step) left the
-pivots up to 0.9 mm apart after an action's settle."""
-CONTACT_ERROR_BIAS = 0.95 ** 60
-"""Share of an overlap between two shapes left after one second (pymunk's default: 0.9^60).
-Pressed against a red object, the effector sinks in by a millimetre or two; pushed out
-faster, it loads the held joints, whose motors resist, and they drift apart (1.7 mm at
-0.8^60, 0.6 mm at this value)."""
+of it corrected at every step of 1/60 s. With pymunk's default (0.9^60, a tenth per step) an
+arm pressed against red objects kept its joints up to 1.0 mm apart after an action's settle;
+with this, 0.3 mm."""
 
 
 @dataclass
@@ -71,8 +62,6 @@ def build_arm_physics(config: WorldConfig, scene: ArmScene, *,
     """
     arm = config.arm
     space = new_space()
-    space.iterations = SOLVER_ITERATIONS
-    space.collision_bias = CONTACT_ERROR_BIAS
     names: dict[pymunk.Shape, str] = {}
     add_walls(space, arm.table_width, arm.table_height)
     add_circle(space, space.static_body, arm.base_radius)
