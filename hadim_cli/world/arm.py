@@ -33,7 +33,6 @@ from hadim_cli.world.layout import (
     Shape,
     arm_spaces,
 )
-from hadim_cli.world.physics import n_settle_substeps, n_substeps
 from hadim_cli.world.placement import ROBOT_COLOR, draw_arm_scene
 from hadim_cli.world.scene import ArmScene
 
@@ -59,24 +58,16 @@ class ArmWorld(Environment[ArmScene, ArmPhysics]):
     body = Body.ARM
 
     def __init__(self, config: WorldConfig):
-        super().__init__(config)
+        super().__init__(config, arm_layout(config))
         arm = config.arm
         self.action_space = joint_actions(len(arm.link_lengths))
         """One speed command per joint, base outwards, each in [-1, 1]."""
-        self.layout = arm_layout(config)
         self._n = len(arm.link_lengths)
         self._last_length = arm.link_lengths[-1]
         self._ranges = joint_ranges(arm.joint_limits)
         self._speed = arm.max_joint_speed
-        self._substeps = n_substeps(config)
-        self._settle = n_settle_substeps(config)
-        self._dt = config.physics_dt
-        self._obs = np.zeros(self.layout.size)
-        lay = self.layout
-        self._effector_pos = lay.space(EFFECTOR, Property.POSITION).slice
-        self._joints = lay.space(EFFECTOR, Property.JOINTS).slice
-        self._obj_pos = lay.object_columns(Property.POSITION)
-        self._obj_rel = lay.object_columns(Property.RELATIVE)
+        self._effector_pos = self.layout.space(EFFECTOR, Property.POSITION).slice
+        self._joints = self.layout.space(EFFECTOR, Property.JOINTS).slice
 
     # ------------------------------------------------------------------ episode
 

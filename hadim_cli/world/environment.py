@@ -18,6 +18,7 @@ from hadim_cli.config import Body, WorldConfig
 from hadim_cli.errors import HadimError
 from hadim_cli.world.actions import ActionSpace
 from hadim_cli.world.layout import ObservationLayout, Property, Shape
+from hadim_cli.world.physics import n_settle_substeps, n_substeps
 from hadim_cli.world.scene import ObjectSpec
 
 SceneT = TypeVar("SceneT")
@@ -34,12 +35,20 @@ class Environment(ABC, Generic[SceneT, PhysicsT]):
     layout: ObservationLayout
     """Where each (entity, property) space lies in an observation, with its bounds."""
 
-    def __init__(self, config: WorldConfig):
+    def __init__(self, config: WorldConfig, layout: ObservationLayout):
         if config.body is not self.body:
             raise HadimError(f"world.body = {config.body.value!r}: this part of hadim runs the "
                              f"{self.body.value} only (`hadim world render|info` and `hadim "
                              "bench world` run every body)")
         self.config = config
+        self.layout = layout
+        self._obs = np.zeros(layout.size)
+        """The observation being filled; `observe` returns a copy."""
+        self._obj_pos = layout.object_columns(Property.POSITION)
+        self._obj_rel = layout.object_columns(Property.RELATIVE)
+        self._substeps = n_substeps(config)
+        self._settle = n_settle_substeps(config)
+        self._dt = config.physics_dt
         self._physics: PhysicsT | None = None
         self._scene: SceneT | None = None
         self._steps = 0

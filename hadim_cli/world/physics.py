@@ -41,8 +41,8 @@ def n_substeps(config: WorldConfig) -> int:
 
 
 def n_settle_substeps(config: WorldConfig) -> int:
-    """Physics steps with the wheels stopped after each action (settle_time / physics_dt,
-    rounded)."""
+    """Physics steps with the wheels stopped (the arm's joints held) after each action
+    (settle_time / physics_dt, rounded)."""
     return round(config.settle_time / config.physics_dt)
 
 

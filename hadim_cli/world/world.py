@@ -26,8 +26,6 @@ from hadim_cli.world.lidar import Lidar
 from hadim_cli.world.physics import (
     Physics,
     build_physics,
-    n_settle_substeps,
-    n_substeps,
     wheel_command,
 )
 from hadim_cli.world.placement import ROBOT_COLOR, draw_scene
@@ -61,24 +59,14 @@ class World(Environment[Scene, Physics]):
     """(left, right) wheel intensities, each in [-1, 1]."""
 
     def __init__(self, config: WorldConfig):
-        super().__init__(config)
-        self.layout = layout_for(config)
+        super().__init__(config, layout_for(config))
         self._lidar = Lidar(config.lidar_rays, config.lidar_range,
                             config.room_width / 2, config.room_height / 2)
-        self._substeps = n_substeps(config)
-        self._settle = n_settle_substeps(config)
-        self._dt = config.physics_dt
-        self._obs = np.zeros(self.layout.size)
         self._radii: list[float] = [0.0] * len(self.layout.objects)
-        self._index_spaces()
-
-    def _index_spaces(self) -> None:
         lay = self.layout
         self._robot_pos = lay.space(ROBOT, Property.POSITION).slice
         self._robot_heading = lay.space(ROBOT, Property.HEADING).slice
         self._robot_lidar = lay.space(ROBOT, Property.LIDAR).slice
-        self._obj_pos = lay.object_columns(Property.POSITION)
-        self._obj_rel = lay.object_columns(Property.RELATIVE)
 
     # ------------------------------------------------------------------ episode
 

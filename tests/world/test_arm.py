@@ -11,7 +11,7 @@ import sys
 
 import numpy as np
 import pytest
-from conftest import GREEN, RED
+from conftest import GREEN, RED, assert_drawn_object
 
 from hadim_cli.config import Body, WorldConfig, configs_dir, load_config
 from hadim_cli.errors import ActionError, HadimError
@@ -246,11 +246,7 @@ def test_reset_draws_a_pose_within_limits_and_objects_the_arm_reaches(seed: int)
     objs = scene.objects
     assert [o.pushable for o in objs] == [True] * ARM.n_green + [False] * ARM.n_red
     for o in objs:
-        r, g, b = o.color
-        dominant, others = (g, (r, b)) if o.pushable else (r, (g, b))
-        assert dominant >= 0.55 and max(others) <= 0.3
-        assert ARM.object_radius_min <= o.radius <= ARM.object_radius_max
-        assert ARM.object_height_min <= o.height <= ARM.object_height_max
+        assert_drawn_object(o, ARM)
         assert inner <= math.hypot(o.x, o.y) <= outer
         assert math.hypot(o.x, o.y) >= arm.base_radius + o.radius + gap
         assert math.hypot(o.x - effector[0], o.y - effector[1]) >= (
