@@ -560,7 +560,7 @@ class Config:
     """The whole resolved configuration of a run."""
 
     world: WorldConfig = field(default_factory=WorldConfig)
-    """The simulated room."""
+    """The simulated world: the body and its objects."""
     learner: LearnerConfig = field(default_factory=LearnerConfig)
     """The affordance learner."""
     planner: PlannerConfig = field(default_factory=PlannerConfig)
