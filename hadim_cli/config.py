@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import ast
 import dataclasses
+import enum
 import inspect
 import math
 import os
@@ -44,10 +45,102 @@ def _check(cond: bool, key: str, allowed: str, value: Any) -> None:
         raise ConfigError(f"config key '{key}' = {value!r} is impossible: {allowed}")
 
 
+class Body(enum.StrEnum):
+    """The body the learner acts through (`world.body`)."""
+
+    ROVER = "rover"
+    """The paper's two-wheeled robot in a closed room (§3.1)."""
+    ARM = "arm"
+    """A planar three-link arm on a table (the paper's future work)."""
+
+
+@dataclass(frozen=True)
+class ArmConfig:
+    """The planar arm seen from above (`world.body = "arm"`): a fixed base at the table's
+    centre, links joined by motorised pivot joints, a disc end effector (docs/world.md)."""
+
+    link_lengths: tuple[float, ...] = (0.6, 0.5, 0.4)
+    """Length of each link from the base outwards (m), at least two; one joint and one action
+    component per link. Their sum is the arm's reach."""
+    joint_limits: tuple[float, ...] = (2.0, 2.0)
+    """How far each joint after the shoulder turns either way from straight (rad, at most π),
+    one per joint from the elbow outwards: short of folding back, so the effector keeps off
+    its base (by default it comes no nearer than 0.20 m). The shoulder turns all round (±π
+    from the table's +x axis), so the arm reaches a whole annulus round its base."""
+    max_joint_speed: float = 0.12
+    """Joint speed at command 1 (rad/s), the same for every joint: the effector then moves at
+    0.34 m/s at most (the arm straight, every joint at full speed one way), about the rover's
+    0.3 m/s, so that the arm, and what it pushed, come to rest within `settle_time`."""
+    motor_torques: tuple[float, ...] = (40.0, 25.0, 12.0)
+    """Largest torque each joint's motor exerts (N·m), one per link: enough to push the
+    heaviest green object (23.1 N of ground friction) in almost every pose and direction,
+    more slowly than a light one; a red object stops the arm."""
+    link_mass: float = 3.0
+    """Mass of each link (kg), spread evenly along it."""
+    joint_inertia: float = 1.0
+    """Moment of inertia each joint's motor and gearbox add to the link it turns (kg·m²): in
+    a real arm the rotor's, reflected through the gearing, outweighs the link's own. It also
+    keeps pymunk's chain of joints stiff: with the links' own inertia alone (0.09 kg·m² at
+    most) the effector strayed up to 5 mm from where its joint angles put it; with 1, 0.3 mm
+    (docs/world.md)."""
+    effector_radius: float = 0.05
+    """Radius of the disc end effector at the tip of the last link (m): the only part of the
+    arm that touches the objects (the links pass above them)."""
+    effector_height: float = 0.1
+    """Height of the end effector (m); one of its visual properties."""
+    base_radius: float = 0.1
+    """Radius of the fixed base at the table's centre (m); objects cannot cross it."""
+    table_width: float = 4.0
+    """Inner width of the table (m); a low rim round it keeps the objects on it."""
+    table_height: float = 4.0
+    """Inner depth of the table (m)."""
+
+    def validate(self) -> None:
+        n = len(self.link_lengths)
+        _check(n >= 2, "world.arm.link_lengths", "must hold at least two lengths",
+               list(self.link_lengths))
+        _check(all(v > 0 for v in self.link_lengths), "world.arm.link_lengths",
+               "every length must be > 0", list(self.link_lengths))
+        _check(len(self.motor_torques) == n, "world.arm.motor_torques",
+               f"must hold one torque per link ({n}, as world.arm.link_lengths)",
+               list(self.motor_torques))
+        _check(len(self.joint_limits) == n - 1, "world.arm.joint_limits",
+               f"must hold one limit per joint after the shoulder ({n - 1}: one less than "
+               "world.arm.link_lengths)", list(self.joint_limits))
+        _check(all(0 < v <= math.pi for v in self.joint_limits), "world.arm.joint_limits",
+               "every limit must be in (0, π]", list(self.joint_limits))
+        _check(all(v > 0 for v in self.motor_torques), "world.arm.motor_torques",
+               "every torque must be > 0", list(self.motor_torques))
+        for name in ("max_joint_speed", "link_mass", "effector_radius", "effector_height",
+                     "base_radius"):
+            value = getattr(self, name)
+            _check(value > 0, f"world.arm.{name}", "must be > 0", value)
+        _check(self.joint_inertia >= 0, "world.arm.joint_inertia", "must be >= 0",
+               self.joint_inertia)
+        room = self.reach + self.effector_radius
+        for name in ("table_width", "table_height"):
+            value = getattr(self, name)
+            _check(value / 2 > room, f"world.arm.{name}",
+                   f"must exceed {2 * room:g} m (twice the arm's reach plus its effector's "
+                   "radius), so the arm stays on the table", value)
+
+    @property
+    def reach(self) -> float:
+        """Distance from the base to the effector with the arm straight (m)."""
+        return sum(self.link_lengths)
+
+
 @dataclass(frozen=True)
 class WorldConfig:
-    """The simulated room of the paper (§3.1)."""
+    """The simulated world: the body (`body`), the rover's room (the paper's, §3.1: the keys
+    from `room_width` to `random_heading` and the LIDAR's), the arm's table (`[world.arm]`),
+    and the objects and timing both share."""
 
+    body: Body = Body.ROVER
+    """The body the learner acts through: "rover" (the paper's robot in its room) or "arm"
+    (a planar arm on a table, configured by `[world.arm]`)."""
+    arm: ArmConfig = field(default_factory=ArmConfig)
+    """The arm's own keys (used when `body = "arm"`)."""
     room_width: float = 4.0
     """Inner width of the closed room (m)."""
     room_height: float = 4.0
@@ -94,9 +187,11 @@ class WorldConfig:
     ground_friction: float = 0.4
     """Coulomb coefficient μ of the ground; friction force μ·m·g."""
     start_clearance: float = 0.5
-    """No object within this distance of the robot's start (m)."""
+    """No object within this distance of the robot's start (m); the rover's only (the arm's
+    objects keep `object_gap` from its effector's start)."""
     object_gap: float = 0.05
-    """Smallest free gap between two objects and between an object and a wall (m)."""
+    """Smallest free gap between two objects and between an object and a wall (m) (the
+    arm's: also its base and its effector's start)."""
     random_heading: bool = False
     """Robot heading at reset drawn uniformly (True) or facing +x (False, the default: every
     episode starts from the same pose, as the paper's robot "always starts at the centre")."""
@@ -134,7 +229,11 @@ class WorldConfig:
                self.episode_length)
         _check(2 * self.robot_radius < min(self.room_width, self.room_height), "world.robot_radius",
                "the robot must fit in the room", self.robot_radius)
-        self._validate_packing()
+        self.arm.validate()
+        if self.body is Body.ARM:
+            self._validate_arm_packing()
+        else:
+            self._validate_packing()
 
     def _validate_packing(self) -> None:
         """Refuse layouts that cannot fit: area of the largest objects against the free room."""
@@ -149,11 +248,28 @@ class WorldConfig:
         # A square packing of discs of radius r (gap included) is always achievable, so
         # require it with the start clearance zone removed; random placement retries within it.
         free = usable_w * usable_h - math.pi * (self.start_clearance + r) ** 2
-        needed = n * (2 * r) ** 2 * 1.6
-        _check(free >= needed, "world.n_green",
+        _check(free >= _packed_area(n, r), "world.n_green",
                f"{n} objects of radius up to {self.object_radius_max} m do not fit in a "
                f"{self.room_width}x{self.room_height} m room; lower the count or the radius",
                self.n_green)
+
+    def _validate_arm_packing(self) -> None:
+        """The same test on the disc the arm reaches, less its base and its effector."""
+        n = self.n_green + self.n_red
+        if n == 0:
+            return
+        arm, r = self.arm, self.object_radius_max + self.object_gap
+        free = math.pi * (arm.reach ** 2 - (arm.base_radius + r) ** 2
+                          - (arm.effector_radius + r) ** 2)
+        _check(free >= _packed_area(n, r), "world.n_green",
+               f"{n} objects of radius up to {self.object_radius_max} m do not fit within the "
+               f"arm's reach ({arm.reach:g} m); lower the count or the radius, or lengthen "
+               "world.arm.link_lengths", self.n_green)
+
+
+def _packed_area(n: int, r: float) -> float:
+    """Area `n` discs of radius `r` need to be placed at random without overlap (m²)."""
+    return n * (2 * r) ** 2 * 1.6
 
 
 @dataclass(frozen=True)
@@ -444,7 +560,7 @@ class Config:
     """The whole resolved configuration of a run."""
 
     world: WorldConfig = field(default_factory=WorldConfig)
-    """The simulated room."""
+    """The simulated world: the body and its objects."""
     learner: LearnerConfig = field(default_factory=LearnerConfig)
     """The affordance learner."""
     planner: PlannerConfig = field(default_factory=PlannerConfig)
@@ -484,13 +600,10 @@ def field_docs(cls: type) -> dict[str, str]:
 def _coerce(key: str, value: Any, annotation: Any) -> Any:
     """Check a TOML value against a field's type; ints are accepted for floats."""
     kind = annotation if isinstance(annotation, type) else typing.get_origin(annotation)
+    if isinstance(kind, type) and issubclass(kind, enum.Enum):
+        return _coerce_enum(key, value, kind)
     if kind is float:
-        if isinstance(value, bool) or not isinstance(value, int | float):
-            raise ConfigError(f"config key '{key}' must be a number, got {value!r}")
-        value = float(value)
-        if not math.isfinite(value):
-            raise ConfigError(f"config key '{key}' must be finite, got {value!r}")
-        return value
+        return _coerce_float(key, value)
     if kind is bool:
         if not isinstance(value, bool):
             raise ConfigError(f"config key '{key}' must be true or false, got {value!r}")
@@ -509,6 +622,24 @@ def _coerce(key: str, value: Any, annotation: Any) -> Any:
             raise ConfigError(f"config key '{key}' must be a list, got {value!r}")
         return tuple(_coerce(key, v, item) for v in value)
     raise ConfigError(f"config key '{key}' has an unsupported type {annotation!r}")
+
+
+def _coerce_float(key: str, value: Any) -> float:
+    if isinstance(value, bool) or not isinstance(value, int | float):
+        raise ConfigError(f"config key '{key}' must be a number, got {value!r}")
+    value = float(value)
+    if not math.isfinite(value):
+        raise ConfigError(f"config key '{key}' must be finite, got {value!r}")
+    return value
+
+
+def _coerce_enum(key: str, value: Any, kind: type[enum.Enum]) -> enum.Enum:
+    try:
+        return kind(value)
+    except ValueError:
+        allowed = ", ".join(repr(m.value) for m in kind)
+        raise ConfigError(f"config key '{key}' must be one of {allowed}, got {value!r}"
+                          ) from None
 
 
 def _build(cls: type, values: Mapping[str, Any], prefix: str) -> Any:

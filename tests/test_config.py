@@ -22,12 +22,22 @@ def test_default_toml_matches_dataclass_defaults():
     assert load_config() == Config()
 
 
+def _tables(values: object, name: str):
+    """(name, dataclass instance) of a section and of every table within it (`world.arm`)."""
+    yield name, values
+    for f in dataclasses.fields(values):
+        value = getattr(values, f.name)
+        if dataclasses.is_dataclass(value):
+            yield from _tables(value, f"{name}.{f.name}")
+
+
 def test_every_field_is_documented():
     for section in dataclasses.fields(Config):
-        cls = type(getattr(Config(), section.name))
-        docs = field_docs(cls)
-        missing = [f.name for f in dataclasses.fields(cls) if not docs.get(f.name)]
-        assert not missing, f"{cls.__name__} fields without a docstring: {missing}"
+        for _, values in _tables(getattr(Config(), section.name), section.name):
+            cls = type(values)
+            docs = field_docs(cls)
+            missing = [f.name for f in dataclasses.fields(cls) if not docs.get(f.name)]
+            assert not missing, f"{cls.__name__} fields without a docstring: {missing}"
 
 
 def test_override_types():
@@ -60,6 +70,16 @@ def test_file_then_overrides(tmp_path):
         ("planner.clearance=-0.1", "'planner.clearance' = -0.1 is impossible"),
         ("planner.convoy=true", "unknown config key 'planner.convoy'"),
         ("world", "section.key=value"),
+        ("world.body=leg", "'world.body' must be one of 'rover', 'arm', got 'leg'"),
+        ("world.body=1", "'world.body' must be one of"),
+        ("world.arm.joint_limits=[1,2,3]", "must hold one limit per joint after the shoulder (2"),
+        ("world.arm.joint_limits=[4,1]", "every limit must be in (0, π]"),
+        ("world.arm.motor_torques=[1,0,1]", "every torque must be > 0"),
+        ("world.arm.motor_torques=[1,1]", "must hold one torque per link (3"),
+        ("world.arm.link_lengths=[1.0]", "must hold at least two lengths"),
+        ("world.arm.max_joint_speed=0", "'world.arm.max_joint_speed' = 0.0 is impossible"),
+        ("world.arm.table_width=2", "so the arm stays on the table"),
+        ("world.arm.reach=1", "unknown config key 'world.arm.reach'"),
     ],
 )
 def test_bad_values_name_the_key(override, message):
@@ -164,7 +184,26 @@ def test_default_toml_lists_every_key_of_every_section():
     written = tomllib.loads((configs_dir() / "default.toml").read_text())
     assert set(written) == {f.name for f in dataclasses.fields(Config)}
     for section in dataclasses.fields(Config):
-        fields = {f.name for f in dataclasses.fields(type(getattr(Config(), section.name)))}
-        keys = set(written[section.name])
-        assert keys <= fields, f"[{section.name}] keys no field has: {sorted(keys - fields)}"
-        assert keys == fields, f"[{section.name}] lacks {sorted(fields - keys)}"
+        for name, values in _tables(getattr(Config(), section.name), section.name):
+            table = written
+            for part in name.split("."):
+                table = table[part]
+            fields = {f.name for f in dataclasses.fields(values)}
+            keys = set(table)
+            assert keys <= fields, f"[{name}] keys no field has: {sorted(keys - fields)}"
+            assert keys == fields, f"[{name}] lacks {sorted(fields - keys)}"
+
+
+def test_the_body_is_chosen_by_config_and_a_stored_run_without_one_is_the_rover():
+    """`configs/arm.toml` selects the arm (its own keys under `[world.arm]`, overridable with
+    `--set world.arm.KEY=…`); a run stored before `world.body` existed restores as the rover
+    it was, with every other key as stored."""
+    from hadim_cli.config import Body, configs_dir
+
+    arm = load_config(configs_dir() / "arm.toml", ["world.arm.link_lengths=[0.7, 0.5, 0.3]"])
+    assert arm.world.body is Body.ARM and arm.world.arm.link_lengths == (0.7, 0.5, 0.3)
+    assert config_from_dict(arm.to_dict()) == arm
+    assert Config().world.body is Body.ROVER
+    values = Config().to_dict()
+    del values["world"]["body"], values["world"]["arm"]
+    assert stored_config(values) == Config()

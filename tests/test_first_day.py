@@ -254,9 +254,13 @@ def test_config_show_gives_every_meaning_whole():
 
     resolved = load_config()
     wide = ok("config", "show", env={"COLUMNS": "1000"}).stdout
-    for section in dataclasses.fields(Config):
-        for key, doc in field_docs(type(getattr(resolved, section.name))).items():
-            assert " ".join(doc.split()) in wide, f"{section.name}.{key}"
+    tables = [(section.name, getattr(resolved, section.name))
+              for section in dataclasses.fields(Config)]
+    for name, values in tables:
+        for key, doc in field_docs(type(values)).items():
+            assert " ".join(doc.split()) in wide, f"{name}.{key}"
+            if dataclasses.is_dataclass(getattr(values, key)):
+                tables.append((f"{name}.{key}", getattr(values, key)))
 
 
 def test_outputs_say_what_they_wrote_and_name_the_run(store, tmp_path):

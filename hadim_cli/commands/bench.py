@@ -43,12 +43,12 @@ def world(
     from rich.console import Console
     from rich.table import Table
 
-    table = Table(title=f"world: {actions} random actions, seed {seed}, "
+    table = Table(title=f"world ({result.body}): {actions} random actions, seed {seed}, "
                   f"{result.substeps_per_action} physics steps per action")
     table.add_column("loop")
     table.add_column("actions/s", justify="right")
     table.add_column("µs/action", justify="right")
-    table.add_row("World.step (checks, physics, contacts, observation)",
+    table.add_row("world step (checks, physics, contacts, observation)",
                   f"{result.actions_per_s:,.0f}", f"{1e6 / result.actions_per_s:,.0f}")
     table.add_row("raw pymunk (physics only)", f"{result.raw_actions_per_s:,.0f}",
                   f"{1e6 / result.raw_actions_per_s:,.0f}")

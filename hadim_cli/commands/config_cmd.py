@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import dataclasses
+import enum
 import json
 
 import typer
@@ -21,6 +22,7 @@ def show(config: ConfigOption = None, set_: SetOption = None, as_json: JsonOptio
         typer.echo(json.dumps(resolved.to_dict(), indent=2))
         return
     from rich.console import Console
+    from rich.markup import escape
     from rich.table import Table
 
     table = Table(title="resolved configuration")
@@ -28,20 +30,32 @@ def show(config: ConfigOption = None, set_: SetOption = None, as_json: JsonOptio
     table.add_column("value", overflow="fold", max_width=24)
     table.add_column("meaning", ratio=1)
     for key, value, meaning in config_rows(resolved):
-        table.add_row(key, value, meaning)
+        table.add_row(escape(key), escape(value), escape(meaning))
     Console().print(table)
 
 
 def config_rows(resolved: Config) -> list[tuple[str, str, str]]:
-    """(key, value, meaning) of every key: the whole docstring, on one line."""
-    rows = []
+    """(key, value, meaning) of every key: the whole docstring, on one line; the keys of a
+    table within a section (`world.arm`) follow it, each under its full name."""
+    rows: list[tuple[str, str, str]] = []
     for section in dataclasses.fields(Config):
-        values = getattr(resolved, section.name)
-        docs = field_docs(type(values))
-        for f in dataclasses.fields(values):
-            rows.append((f"{section.name}.{f.name}", repr(getattr(values, f.name)),
-                         " ".join(docs.get(f.name, "").split())))
+        _table_rows(getattr(resolved, section.name), section.name, rows)
     return rows
+
+
+def _table_rows(values: object, prefix: str, rows: list[tuple[str, str, str]]) -> None:
+    docs = field_docs(type(values))
+    nested = []
+    for f in dataclasses.fields(values):  # type: ignore[arg-type]
+        value = getattr(values, f.name)
+        if dataclasses.is_dataclass(value):
+            nested.append((value, f"{prefix}.{f.name}"))
+            shown = "(table below)"
+        else:
+            shown = repr(value.value if isinstance(value, enum.Enum) else value)
+        rows.append((f"{prefix}.{f.name}", shown, " ".join(docs.get(f.name, "").split())))
+    for value, name in nested:
+        _table_rows(value, name, rows)
 
 
 @app.command("validate")

@@ -48,10 +48,11 @@ def train(
 
     resolved = load_config(config, set_ or [])
     every = _eval_every(eval_every, resolved)
+    session = Session(resolved, seed)  # a world it cannot build is refused before the store
     with runs.open_store(store) as st:
         record = runs.new_run(st, resolved, seed, name)
         typer.echo(record.name)
-        driver.drive(st, record.name, Session(resolved, seed), iterations, every, store,
+        driver.drive(st, record.name, session, iterations, every, store,
                      runs.train, resolved.evaluation.tasks)
 
 

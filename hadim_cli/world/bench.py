@@ -2,8 +2,9 @@
 
 Both loops run the same scenes and the same random actions, episode by episode (interleaved,
 so a change of machine load hits both alike). The raw loop builds the same bodies and joints
-and only sets the control body's velocity and steps the space: no action checks, no contact
-log, no observation. Resets are timed apart: they are not part of a step's cost.
+and only sets the drive (the rover's control body velocity, the arm's motor rates) and steps
+the space: no action checks, no contact log, no observation. Resets are timed apart: they are
+not part of a step's cost. Either body: the configured one (`world.body`).
 """
 
 from __future__ import annotations
@@ -11,10 +12,13 @@ from __future__ import annotations
 import math
 import time
 from dataclasses import asdict, dataclass
+from typing import Any
 
 import numpy as np
 
-from hadim_cli.config import WorldConfig
+from hadim_cli.config import Body, WorldConfig
+from hadim_cli.world.arm_physics import ArmPhysics, build_arm_physics
+from hadim_cli.world.environment import make_world
 from hadim_cli.world.physics import (
     Physics,
     build_physics,
@@ -22,8 +26,6 @@ from hadim_cli.world.physics import (
     n_substeps,
     wheel_command,
 )
-from hadim_cli.world.placement import draw_scene
-from hadim_cli.world.world import World, wrap_angle
 
 
 @dataclass(frozen=True)
@@ -40,7 +42,10 @@ class WorldBench:
     reset_seconds: float
     """Time spent in `World.reset` with a given scene (s)."""
     same_trajectory: bool
-    """The raw loop ended every episode with the same robot pose as the world, bit for bit."""
+    """The raw loop ended every episode with every body where the world left it, bit for
+    bit."""
+    body: str
+    """The body benchmarked: "rover" or "arm"."""
 
     @property
     def actions_per_s(self) -> float:
@@ -87,17 +92,46 @@ def _raw_actions(physics: Physics, config: WorldConfig, actions: list[list[float
     return time.perf_counter() - start
 
 
+def _raw_arm_actions(physics: ArmPhysics, config: WorldConfig,
+                     actions: list[list[float]]) -> float:
+    motors, space = physics.motors, physics.space
+    dt, substeps, settle = config.physics_dt, n_substeps(config), n_settle_substeps(config)
+    speed = config.arm.max_joint_speed
+    start = time.perf_counter()
+    for action in actions:
+        for motor, c in zip(motors, action, strict=True):
+            motor.rate = -c * speed
+        for _ in range(substeps):
+            space.step(dt)
+        if settle:
+            for motor in motors:
+                motor.rate = 0.0
+            for _ in range(settle):
+                space.step(dt)
+    return time.perf_counter() - start
+
+
+def _raw_episode(config: WorldConfig, scene: Any, actions: list[list[float]]
+                 ) -> tuple[float, np.ndarray]:
+    """Seconds the raw loop took on `actions` from `scene`, and every body's pose at the end."""
+    if config.body is Body.ARM:
+        arm = build_arm_physics(config, scene, track_contacts=False)
+        return _raw_arm_actions(arm, config, actions), arm.poses.poses()
+    room = build_physics(config, scene, track_contacts=False)
+    return _raw_actions(room, config, actions), room.poses.poses()
+
+
 def bench_world(config: WorldConfig, actions: int, seed: int = 0) -> WorldBench:
     """Run `actions` uniform random primitive actions, a new scene every episode_length."""
     scene_rng, action_rng = np.random.default_rng(seed).spawn(2)
-    all_actions = action_rng.uniform(-1.0, 1.0, size=(actions, 2))
-    world = World(config)
+    world = make_world(config)
+    all_actions = world.action_space.sample(action_rng, actions)
     ours = raw = resets = 0.0
     same = True
     episodes = 0
     for begin in range(0, actions, config.episode_length):
         chunk = all_actions[begin:begin + config.episode_length]
-        scene = draw_scene(config, scene_rng)
+        scene = world.draw_scene(scene_rng)
         start = time.perf_counter()
         world.reset(scene=scene)
         resets += time.perf_counter() - start
@@ -105,9 +139,9 @@ def bench_world(config: WorldConfig, actions: int, seed: int = 0) -> WorldBench:
         for action in chunk:
             world.step(action)
         ours += time.perf_counter() - start
-        physics = build_physics(config, scene, track_contacts=False)
-        raw += _raw_actions(physics, config, chunk.tolist())
-        x, y = physics.robot.position
-        same &= (x, y, wrap_angle(physics.robot.angle)) == world.robot_pose()
+        seconds, poses = _raw_episode(config, scene, chunk.tolist())
+        raw += seconds
+        same &= bool(np.array_equal(poses, world.poses()))
         episodes += 1
-    return WorldBench(actions, episodes, n_substeps(config), ours, raw, resets, same)
+    return WorldBench(actions, episodes, n_substeps(config), ours, raw, resets, same,
+                      config.body.value)

@@ -2,7 +2,8 @@
 
 An observation is a 1-D float64 array; `ObservationLayout` says which slice holds which
 (entity, property) space, with its dimension and bounds. The world fills the vector; the
-learner reads spaces by name. Entity 0 is always the robot, entities 1..n the objects.
+learner reads spaces by name. Entity 0 is always the body's *actor* — the entity that acts on
+the objects: the rover's `robot`, the arm's `effector` — and entities 1..n the objects.
 """
 
 from __future__ import annotations
@@ -14,6 +15,9 @@ from functools import cached_property
 import numpy as np
 
 ROBOT = "robot"
+"""The rover's actor."""
+EFFECTOR = "effector"
+"""The arm's actor: its end effector."""
 
 
 def object_name(index: int) -> str:
@@ -25,13 +29,18 @@ class Property(enum.StrEnum):
     """Observable properties of an entity (paper §3.1)."""
 
     POSITION = "position"
-    """Absolute (x, y) in the room frame, origin at the room centre (m)."""
+    """Absolute (x, y) in the world frame, origin at the room's (or the table's) centre (m)."""
     RELATIVE = "relative"
-    """Object position minus robot position, room frame (m); objects only."""
+    """Object position minus the actor's position, world frame (m); objects only."""
     HEADING = "heading"
-    """(cos θ, sin θ) of the robot's heading; robot only."""
+    """(cos θ, sin θ) of the robot's heading; the rover's robot only."""
     LIDAR = "lidar"
-    """Ranges of the LIDAR rays from the robot's centre (m), robot frame; robot only."""
+    """Ranges of the LIDAR rays from the robot's centre (m), robot frame; the rover's robot
+    only."""
+    JOINTS = "joints"
+    """Angle of each joint of the arm (rad), base outwards: the first link's from the table's
+    +x axis, each other link's from the link before it, counter-clockwise, 0 straight; within
+    the joint's limits (at most ±π, so an angle never wraps); the arm's effector only."""
     RADIUS = "radius"
     HEIGHT = "height"
     COLOR = "color"
@@ -81,15 +90,30 @@ class LayoutBounds:
     lidar_range: float
     radius_max: float
     height_max: float
+    joint_limits: tuple[float, ...] = ()
+    """The arm's joint limits (rad), one per joint; empty for the rover."""
 
 
-def _props_of(is_robot: bool, lidar_rays: int) -> list[tuple[Property, int]]:
-    if is_robot:
-        return [(Property.POSITION, 2), (Property.HEADING, 2), (Property.LIDAR, lidar_rays),
-                (Property.RADIUS, 1), (Property.HEIGHT, 1), (Property.COLOR, 3),
-                (Property.SHAPE, 1)]
-    return [(Property.POSITION, 2), (Property.RELATIVE, 2), (Property.RADIUS, 1),
-            (Property.HEIGHT, 1), (Property.COLOR, 3), (Property.SHAPE, 1)]
+OBJECT_SPACES: tuple[tuple[Property, int], ...] = (
+    (Property.POSITION, 2), (Property.RELATIVE, 2), (Property.RADIUS, 1),
+    (Property.HEIGHT, 1), (Property.COLOR, 3), (Property.SHAPE, 1),
+)
+"""The spaces of every object, whatever the body: (property, dimension)."""
+
+_LOOKS: tuple[tuple[Property, int], ...] = (
+    (Property.RADIUS, 1), (Property.HEIGHT, 1), (Property.COLOR, 3), (Property.SHAPE, 1),
+)
+
+
+def rover_spaces(lidar_rays: int) -> tuple[tuple[Property, int], ...]:
+    """The robot's spaces: position, heading, LIDAR and its looks."""
+    return ((Property.POSITION, 2), (Property.HEADING, 2), (Property.LIDAR, lidar_rays),
+            *_LOOKS)
+
+
+def arm_spaces(n_joints: int) -> tuple[tuple[Property, int], ...]:
+    """The arm's effector's spaces: position, the joint angles and its looks."""
+    return ((Property.POSITION, 2), (Property.JOINTS, n_joints), *_LOOKS)
 
 
 def _bounds(prop: Property, dim: int, b: LayoutBounds) -> tuple[tuple[float, ...], ...]:
@@ -101,6 +125,8 @@ def _bounds(prop: Property, dim: int, b: LayoutBounds) -> tuple[tuple[float, ...
         return (-1.0, -1.0), (1.0, 1.0)
     if prop is Property.LIDAR:
         return (0.0,) * dim, (b.lidar_range,) * dim
+    if prop is Property.JOINTS:
+        return tuple(-v for v in b.joint_limits), tuple(b.joint_limits)
     if prop is Property.RADIUS:
         return (0.0,), (b.radius_max,)
     if prop is Property.HEIGHT:
@@ -119,15 +145,27 @@ class ObservationLayout:
 
     @classmethod
     def build(cls, n_objects: int, lidar_rays: int, bounds: LayoutBounds) -> ObservationLayout:
-        entities = (ROBOT, *(object_name(i) for i in range(n_objects)))
+        """The rover's layout: the robot, then `n_objects` objects."""
+        return cls.for_actor(ROBOT, rover_spaces(lidar_rays), n_objects, bounds)
+
+    @classmethod
+    def for_actor(cls, actor: str, actor_spaces: tuple[tuple[Property, int], ...],
+                  n_objects: int, bounds: LayoutBounds) -> ObservationLayout:
+        """The actor with its (property, dimension) spaces, then `n_objects` objects."""
+        entities = (actor, *(object_name(i) for i in range(n_objects)))
         spaces: list[SpaceSpec] = []
         start = 0
         for entity in entities:
-            for prop, dim in _props_of(entity == ROBOT, lidar_rays):
+            for prop, dim in actor_spaces if entity == actor else OBJECT_SPACES:
                 low, high = _bounds(prop, dim, bounds)
                 spaces.append(SpaceSpec(entity, prop, start, dim, low, high))
                 start += dim
         return cls(entities, tuple(spaces))
+
+    @property
+    def actor(self) -> str:
+        """The entity the body acts with (entity 0): `robot` or `effector`."""
+        return self.entities[0]
 
     @property
     def size(self) -> int:
@@ -153,7 +191,7 @@ class ObservationLayout:
 
     def object_columns(self, prop: Property) -> np.ndarray:
         """(objects, dim) indices of `prop` of every object: `obs[cols]` reads them all."""
-        dim = dict(_props_of(False, 0))[Property(prop)]
+        dim = dict(OBJECT_SPACES)[Property(prop)]
         starts = [self.space(o, prop).start for o in self.objects]
         return (np.asarray(starts, dtype=np.intp)[:, None] + np.arange(dim, dtype=np.intp)
                 ).reshape(-1, dim)

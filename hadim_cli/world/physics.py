@@ -7,6 +7,9 @@ body and the bounds are Coulomb friction (μ·m·g, and its torque (2/3)·μ·m�
 uniform pressure). For the robot the reference is a kinematic *control body* whose velocity is
 the one the wheels ask for; the bounds are the drive force and torque, so a heavy load slows the
 robot down. Red objects are static circles; walls are thick static segments.
+
+The space, the walls, the objects and the readers here serve the arm's table too
+(`arm_physics.py`).
 """
 
 from __future__ import annotations
@@ -20,7 +23,7 @@ import pymunk.batch
 from hadim_cli.config import WorldConfig
 from hadim_cli.world.layout import ROBOT, object_name
 from hadim_cli.world.placement import object_mass
-from hadim_cli.world.scene import Scene
+from hadim_cli.world.scene import ArmScene, Scene
 
 GRAVITY = 9.81
 """Acceleration of gravity (m/s²), for the ground friction force μ·m·g."""
@@ -38,8 +41,8 @@ def n_substeps(config: WorldConfig) -> int:
 
 
 def n_settle_substeps(config: WorldConfig) -> int:
-    """Physics steps with the wheels stopped after each action (settle_time / physics_dt,
-    rounded)."""
+    """Physics steps with the wheels stopped (the arm's joints held) after each action
+    (settle_time / physics_dt, rounded)."""
     return round(config.settle_time / config.physics_dt)
 
 
@@ -123,9 +126,17 @@ class Physics:
     """Reads the robot's pose (row 0) and the objects' (rows 1…, scene order)."""
 
 
-def _walls(space: pymunk.Space, config: WorldConfig) -> None:
+def new_space() -> pymunk.Space:
+    """An empty top-down space, its collision slop in metres."""
+    space = pymunk.Space()
+    space.collision_slop = COLLISION_SLOP
+    return space
+
+
+def add_walls(space: pymunk.Space, width: float, height: float) -> None:
+    """Four static walls whose inner faces bound a width × height rectangle at the origin."""
     t = WALL_THICKNESS
-    hw, hh = config.room_width / 2 + t, config.room_height / 2 + t
+    hw, hh = width / 2 + t, height / 2 + t
     corners = [(-hw, -hh), (hw, -hh), (hw, hh), (-hw, hh)]
     for a, b in zip(corners, corners[1:] + corners[:1], strict=True):
         wall = pymunk.Segment(space.static_body, a, b, t)
@@ -142,38 +153,24 @@ def _friction_joints(space: pymunk.Space, ref: pymunk.Body, body: pymunk.Body,
     space.add(pivot, gear)
 
 
-def _circle(space: pymunk.Space, body: pymunk.Body, radius: float) -> pymunk.Circle:
-    shape = pymunk.Circle(body, radius)
+def add_circle(space: pymunk.Space, body: pymunk.Body, radius: float,
+               offset: tuple[float, float] = (0.0, 0.0)) -> pymunk.Circle:
+    """A disc of `radius` on `body` at `offset` (body frame), friction and elasticity set."""
+    shape = pymunk.Circle(body, radius, offset)
     shape.elasticity, shape.friction = 0.0, SHAPE_FRICTION
     space.add(shape)
     return shape
 
 
-def build_physics(config: WorldConfig, scene: Scene, *, track_contacts: bool = True) -> Physics:
-    """A fresh space holding the walls, the robot at its start pose and the scene's objects.
+def add_objects(space: pymunk.Space, config: WorldConfig, scene: Scene | ArmScene,
+                names: dict[pymunk.Shape, str]) -> tuple[list[pymunk.Body], list[pymunk.Body]]:
+    """The scene's cylinders: green ones dynamic, held by ground friction, red ones static.
 
-    Without `track_contacts` no collision callback is installed (the raw benchmark): the
-    physics is the same, the contact log stays empty.
+    Their shapes are named obj1, obj2, … in `names`. Returns every object's body and the
+    green ones', both in scene order.
     """
-    space = pymunk.Space()
-    space.collision_slop = COLLISION_SLOP
-    names: dict[pymunk.Shape, str] = {}
-    _walls(space, config)
-
-    robot = pymunk.Body(config.robot_mass,
-                        pymunk.moment_for_circle(config.robot_mass, 0, config.robot_radius))
-    robot.position = (scene.robot_x, scene.robot_y)
-    robot.angle = scene.robot_heading
-    space.add(robot)
-    names[_circle(space, robot, config.robot_radius)] = ROBOT
-    control = pymunk.Body(body_type=pymunk.Body.KINEMATIC)
-    control.position = robot.position
-    control.angle = robot.angle
-    space.add(control)
-    _friction_joints(space, control, robot, config.drive_force, config.drive_torque)
-
+    bodies: list[pymunk.Body] = []
     movable: list[pymunk.Body] = []
-    bodies = [robot]
     for i, spec in enumerate(scene.objects):
         if spec.pushable:
             mass = object_mass(config, spec.radius, spec.height)
@@ -183,15 +180,46 @@ def build_physics(config: WorldConfig, scene: Scene, *, track_contacts: bool = T
         body.position = (spec.x, spec.y)
         space.add(body)
         bodies.append(body)
-        names[_circle(space, body, spec.radius)] = object_name(i)
+        names[add_circle(space, body, spec.radius)] = object_name(i)
         if spec.pushable:
             friction = config.ground_friction * mass * GRAVITY
             _friction_joints(space, space.static_body, body, friction,
                              friction * spec.radius * 2 / 3)
             movable.append(body)
+    return bodies, movable
 
+
+def build_physics(config: WorldConfig, scene: Scene, *, track_contacts: bool = True) -> Physics:
+    """A fresh space holding the walls, the robot at its start pose and the scene's objects.
+
+    Without `track_contacts` no collision callback is installed (the raw benchmark): the
+    physics is the same, the contact log stays empty.
+    """
+    space = new_space()
+    names: dict[pymunk.Shape, str] = {}
+    add_walls(space, config.room_width, config.room_height)
+
+    robot = pymunk.Body(config.robot_mass,
+                        pymunk.moment_for_circle(config.robot_mass, 0, config.robot_radius))
+    robot.position = (scene.robot_x, scene.robot_y)
+    robot.angle = scene.robot_heading
+    space.add(robot)
+    names[add_circle(space, robot, config.robot_radius)] = ROBOT
+    control = pymunk.Body(body_type=pymunk.Body.KINEMATIC)
+    control.position = robot.position
+    control.angle = robot.angle
+    space.add(control)
+    _friction_joints(space, control, robot, config.drive_force, config.drive_torque)
+
+    objects, movable = add_objects(space, config, scene, names)
+    return Physics(space, robot, control, movable, contact_log(space, names, track_contacts),
+                   PoseReader(space, [robot, *objects]))
+
+
+def contact_log(space: pymunk.Space, names: dict[pymunk.Shape, str],
+                track_contacts: bool) -> ContactLog:
+    """The space's contact log, fed by its collision callbacks unless `track_contacts` is off."""
     contacts = ContactLog(names)
     if track_contacts:
         space.on_collision(begin=contacts.begin, separate=contacts.separate)
-    return Physics(space, robot, control, movable, contacts,
-                   PoseReader(space, bodies))
+    return contacts

@@ -1,8 +1,10 @@
-"""Top-down picture of the room from an observation: walls, objects, robot, LIDAR, trajectory.
+"""Top-down picture of a world from an observation: the room (walls, robot, LIDAR) or the
+arm's table (base, links, joints, effector, the annulus it reaches), the objects, trajectories.
 
-Everything is read from the observation vector and its layout (the room's size is the bound of
-the position spaces), so a stored observation renders as well as a live world. matplotlib is
-imported here only, and through `Figure` (no pyplot, no global backend state).
+Everything is read from the observation vector and its layout (the room's or table's size is
+the bound of the position spaces), so a stored observation renders as well as a live world;
+the arm's link lengths and sizes come from its config. matplotlib is imported here only, and
+through `Figure` (no pyplot, no global backend state).
 """
 
 from __future__ import annotations
@@ -13,6 +15,8 @@ from typing import Protocol
 
 import numpy as np
 
+from hadim_cli.config import ArmConfig, Body, WorldConfig
+from hadim_cli.world.kinematics import inner_reach, joint_points, outer_reach
 from hadim_cli.world.layout import ROBOT, ObservationLayout, Property
 
 _MOVED = 1e-3  # an object whose path is longer than this (m) gets its trajectory drawn
@@ -20,6 +24,7 @@ _MOVED = 1e-3  # an object whose path is longer than this (m) gets its trajector
 
 class Observable(Protocol):
     layout: ObservationLayout
+    config: WorldConfig
 
     def observe(self) -> np.ndarray: ...
 
@@ -52,22 +57,65 @@ def _lidar(ax, layout: ObservationLayout, obs: np.ndarray, x: float, y: float) -
 def _trajectory(ax, layout: ObservationLayout, trajectory: np.ndarray) -> None:
     for entity in layout.entities:
         path = trajectory[:, layout.space(entity, Property.POSITION).slice]
-        if entity != ROBOT and np.abs(np.diff(path, axis=0)).sum() <= _MOVED:
+        actor = entity == layout.actor
+        if not actor and np.abs(np.diff(path, axis=0)).sum() <= _MOVED:
             continue
-        color = "black" if entity == ROBOT else np.clip(
+        color = "black" if actor else np.clip(
             layout.get(trajectory[0], entity, Property.COLOR), 0.0, 1.0)
-        ax.plot(path[:, 0], path[:, 1], color=color, lw=1.0,
-                ls="-" if entity == ROBOT else "--", zorder=2.5)
+        ax.plot(path[:, 0], path[:, 1], color=color, lw=1.0, ls="-" if actor else "--",
+                zorder=2.5)
         ax.scatter(path[:1, 0], path[:1, 1], s=10, color=color, marker="x", zorder=2.5)
+
+
+def _robot(ax, layout: ObservationLayout, obs: np.ndarray, lidar: bool) -> None:
+    x, y = _disc(ax, layout, obs, ROBOT)
+    if lidar:
+        _lidar(ax, layout, obs, x, y)
+    radius = float(layout.get(obs, ROBOT, Property.RADIUS)[0])
+    cos_h, sin_h = layout.get(obs, ROBOT, Property.HEADING)
+    ax.plot([x, x + 1.3 * radius * cos_h], [y, y + 1.3 * radius * sin_h], color="white",
+            lw=2, zorder=4)
+
+
+def _table(ax, arm: ArmConfig) -> None:
+    """The reach: the annulus the effector's centre covers, dotted."""
+    from matplotlib.patches import Circle
+
+    for radius in (inner_reach(arm.link_lengths, arm.joint_limits), outer_reach(arm.link_lengths)):
+        ax.add_patch(Circle((0.0, 0.0), radius, fill=False, edgecolor="gray", lw=0.8, ls=":",
+                            zorder=1))
+
+
+def _arm(ax, layout: ObservationLayout, obs: np.ndarray, arm: ArmConfig) -> None:
+    """Base, links (from the observed joint angles), joints and the effector, over the objects:
+    the links pass above them."""
+    from matplotlib.patches import Circle
+
+    actor = layout.actor
+    ax.add_patch(Circle((0.0, 0.0), arm.base_radius, facecolor="dimgray", edgecolor="black",
+                        lw=0.8, zorder=4))
+    points = joint_points(arm.link_lengths, layout.get(obs, actor, Property.JOINTS))
+    ax.plot(points[:, 0], points[:, 1], color="slategray", lw=5, solid_capstyle="round",
+            alpha=0.9, zorder=5)
+    ax.scatter(points[:-1, 0], points[:-1, 1], s=28, color="white", edgecolor="black",
+               lw=0.8, zorder=6)
+    x, y = layout.get(obs, actor, Property.POSITION)
+    color = np.clip(layout.get(obs, actor, Property.COLOR), 0.0, 1.0)
+    radius = float(layout.get(obs, actor, Property.RADIUS)[0])
+    ax.add_patch(Circle((x, y), radius, facecolor=color, edgecolor="black", lw=0.8, zorder=7))
+    ax.annotate(actor, (x, y), xytext=(0, 6), textcoords="offset points",
+                ha="center", va="bottom", fontsize=7, zorder=7)
 
 
 def render_scene(source: Observable | np.ndarray, path: Path | str, *,
                  layout: ObservationLayout | None = None, trajectory: np.ndarray | None = None,
-                 lidar: bool = True, title: str | None = None) -> Path:
+                 lidar: bool = True, title: str | None = None,
+                 arm: ArmConfig | None = None) -> Path:
     """Draw a world (its current observation) or an observation (with `layout`) to `path`.
 
-    `trajectory` is an array of observations (T, layout.size), oldest first: the robot's path is
-    drawn, and the path of every object that moved.
+    `trajectory` is an array of observations (T, layout.size), oldest first: the actor's path
+    is drawn, and the path of every object that moved. An arm's observation needs `arm` (a
+    live arm world gives its own); `lidar` is the rover's.
     """
     from matplotlib.figure import Figure
     from matplotlib.patches import Rectangle
@@ -78,22 +126,26 @@ def render_scene(source: Observable | np.ndarray, path: Path | str, *,
         obs = source
     else:
         obs, layout = source.observe(), source.layout
-    half_w, half_h = layout.space(ROBOT, Property.POSITION).high
+        if source.config.body is Body.ARM:
+            arm = arm or source.config.arm
+    is_arm = layout.has(layout.actor, Property.JOINTS)
+    if is_arm and arm is None:
+        raise ValueError("rendering an arm's observation needs its config (arm=)")
+    half_w, half_h = layout.space(layout.actor, Property.POSITION).high
     fig = Figure(figsize=(6, 6), dpi=120)
     ax = fig.add_subplot()
-    ax.add_patch(Rectangle((-half_w, -half_h), 2 * half_w, 2 * half_h, fill=False,
-                           edgecolor="dimgray", lw=4, zorder=1))
+    ax.add_patch(Rectangle((-half_w, -half_h), 2 * half_w, 2 * half_h, fill=is_arm,
+                           facecolor="#f4ecdc", edgecolor="dimgray", lw=4, zorder=0))
+    if arm is not None and is_arm:
+        _table(ax, arm)
     for entity in layout.objects:
         _disc(ax, layout, obs, entity)
     if trajectory is not None and len(trajectory):
         _trajectory(ax, layout, np.atleast_2d(np.asarray(trajectory)))
-    x, y = _disc(ax, layout, obs, ROBOT)
-    if lidar:
-        _lidar(ax, layout, obs, x, y)
-    radius = float(layout.get(obs, ROBOT, Property.RADIUS)[0])
-    cos_h, sin_h = layout.get(obs, ROBOT, Property.HEADING)
-    ax.plot([x, x + 1.3 * radius * cos_h], [y, y + 1.3 * radius * sin_h], color="white",
-            lw=2, zorder=4)
+    if arm is not None and is_arm:
+        _arm(ax, layout, obs, arm)
+    else:
+        _robot(ax, layout, obs, lidar)
     margin = 0.1
     ax.set_xlim(-half_w - margin, half_w + margin)
     ax.set_ylim(-half_h - margin, half_h + margin)

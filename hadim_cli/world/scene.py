@@ -1,7 +1,8 @@
-"""Scenes: the layout of the room at the start of an episode, as plain frozen records.
+"""Scenes: the layout of the world at the start of an episode, as plain frozen records.
 
-A scene is drawn at random by `draw_scene` (from a passed-in generator) or written by hand in a
-task file; `World.reset(scene=...)` builds a fresh physics space from it.
+A scene is drawn at random by `draw_scene` / `draw_arm_scene` (from a passed-in generator) or
+written by hand in a task file; `reset(scene=...)` builds a fresh physics space from it. The
+room's `Scene` holds the robot's start pose, the arm's `ArmScene` its joint angles.
 """
 
 from __future__ import annotations
@@ -34,3 +35,12 @@ class Scene:
     robot_y: float = 0.0
     robot_heading: float = 0.0
     """Heading angle in radians, 0 facing +x."""
+
+
+@dataclass(frozen=True)
+class ArmScene:
+    """The arm's start pose and the objects on the table (entity order: obj1, obj2, …)."""
+
+    objects: tuple[ObjectSpec, ...]
+    joints: tuple[float, ...]
+    """Start angle of each joint (rad), base outwards, as `Property.JOINTS` reads them."""

@@ -35,6 +35,15 @@ def world_with(*objects: ObjectSpec, heading: float = 0.0, x: float = 0.0, y: fl
     return world
 
 
+def assert_drawn_object(o: ObjectSpec, c: WorldConfig) -> None:
+    """A drawn object is a shade of green (pushable) or red (fixed), of the configured sizes."""
+    r, g, b = o.color
+    dominant, others = (g, (r, b)) if o.pushable else (r, (g, b))
+    assert dominant >= 0.55 and max(others) <= 0.3
+    assert c.object_radius_min <= o.radius <= c.object_radius_max
+    assert c.object_height_min <= o.height <= c.object_height_max
+
+
 @pytest.fixture
 def default_world() -> World:
     return World(WorldConfig())

@@ -5,6 +5,7 @@ from __future__ import annotations
 import json
 
 import numpy as np
+import pytest
 
 from hadim_cli.app import app
 
@@ -60,3 +61,77 @@ def test_bench_world_json(runner) -> None:
     assert {"actions_per_s", "raw_actions_per_s", "overhead_ratio"} <= doc.keys()
     assert doc["actions"] == 15 and doc["episodes"] == 2 and doc["same_trajectory"] is True
     assert doc["overhead_ratio"] > 0
+
+
+ARM = ["--config", "configs/arm.toml"]
+
+
+@pytest.fixture
+def in_checkout(monkeypatch):
+    """Run from the checkout, where `configs/arm.toml` is the path the docs give."""
+    from hadim_cli.config import configs_dir
+
+    monkeypatch.chdir(configs_dir().parent)
+
+
+def test_render_draws_the_arm_s_scene(runner, tmp_path, in_checkout) -> None:
+    out = tmp_path / "arm.png"
+    result = runner.invoke(app, ["world", "render", "--seed", "3", "--out", str(out), *ARM,
+                                 "--random-actions", "5"])
+    assert result.exit_code == 0, result.output
+    assert result.output.strip() == f"wrote {out}"
+    assert out.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+    three = tmp_path / "three.csv"
+    three.write_text("1,0,-1\n0.5,0.5,0.5\n")
+    result = runner.invoke(app, ["world", "render", "--seed", "3", "--out", str(out), *ARM,
+                                 "--episode-actions", str(three)])
+    assert result.exit_code == 0, result.output
+    two = tmp_path / "two.csv"  # the rover's actions are not the arm's
+    two.write_text("1,1\n")
+    result = runner.invoke(app, ["world", "render", "--seed", "3", "--out", str(out), *ARM,
+                                 "--episode-actions", str(two)])
+    assert result.exit_code == 2
+    assert "must hold N rows of 3 joint speeds (joint1, joint2, joint3)" in result.stderr
+
+
+def test_info_lists_the_arm_s_scene(runner, in_checkout) -> None:
+    result = runner.invoke(app, ["world", "info", "--seed", "3", "--json", *ARM])
+    assert result.exit_code == 0, result.output
+    rows = json.loads(result.output)["entities"]
+    assert [row["kind"] for row in rows] == ["effector"] + ["green"] * 6 + ["red"] * 3
+    assert len(rows[0]["joints"]) == 3
+    table = runner.invoke(app, ["world", "info", "--seed", "3", *ARM])
+    assert table.exit_code == 0 and "effector" in table.output
+
+
+def test_bench_world_on_the_arm(runner, in_checkout) -> None:
+    result = runner.invoke(app, ["bench", "world", "--actions", "15", "--json", *ARM,
+                                 "--set", "world.episode_length=10"])
+    assert result.exit_code == 0, result.output
+    doc = json.loads(result.output)
+    assert doc["body"] == "arm" and doc["actions"] == 15 and doc["episodes"] == 2
+    assert doc["same_trajectory"] is True and doc["overhead_ratio"] > 0
+    table = runner.invoke(app, ["bench", "world", "--actions", "5", *ARM])
+    assert table.exit_code == 0 and "world (arm)" in table.output
+
+
+@pytest.mark.parametrize("override", ["world.arm.joint_limits=[4.0, 1.0]",
+                                      "world.arm.link_lengths=[0.5]", "world.body=leg"])
+def test_a_bad_arm_value_is_one_error_line(runner, tmp_path, in_checkout, override) -> None:
+    out = tmp_path / "x.png"
+    result = runner.invoke(app, ["world", "render", "--seed", "1", "--out", str(out), *ARM,
+                                 "--set", override])
+    assert result.exit_code == 2
+    lines = result.stderr.strip().splitlines()
+    assert len(lines) == 1 and lines[0].startswith("error: config key 'world."), lines
+    assert not out.exists()
+
+
+def test_training_on_the_arm_is_refused_before_anything_is_stored(runner, tmp_path,
+                                                                   in_checkout) -> None:
+    store = tmp_path / "runs.sqlite"
+    result = runner.invoke(app, ["train", "-n", "5", *ARM, "--store", str(store)])
+    assert result.exit_code == 2
+    lines = result.stderr.strip().splitlines()
+    assert len(lines) == 1 and "world.body = 'arm'" in lines[0], lines
+    assert not store.exists()

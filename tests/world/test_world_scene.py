@@ -6,7 +6,7 @@ import math
 
 import numpy as np
 import pytest
-from conftest import config
+from conftest import assert_drawn_object, config
 
 from hadim_cli.config import WorldConfig
 from hadim_cli.world.placement import SceneError, draw_scene
@@ -22,11 +22,7 @@ def test_draw_scene_respects_the_rules(seed: int) -> None:
     assert (scene.robot_x, scene.robot_y) == (0.0, 0.0)
     assert -math.pi <= scene.robot_heading < math.pi
     for o in objs:
-        r, g, b = o.color
-        dominant, others = (g, (r, b)) if o.pushable else (r, (g, b))
-        assert dominant >= 0.55 and max(others) <= 0.3
-        assert c.object_radius_min <= o.radius <= c.object_radius_max
-        assert c.object_height_min <= o.height <= c.object_height_max
+        assert_drawn_object(o, c)
         assert math.hypot(o.x, o.y) - o.radius >= c.start_clearance
         assert abs(o.x) + o.radius + c.object_gap <= c.room_width / 2
         assert abs(o.y) + o.radius + c.object_gap <= c.room_height / 2
