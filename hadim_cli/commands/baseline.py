@@ -51,12 +51,12 @@ def train(
     """Train a baseline on one task and store it as a run; prints the run's name."""
     from hadim_cli import runs
     from hadim_cli.baselines import runs as baseline_runs
-    from hadim_cli.baselines.agents import make_config
+    from hadim_cli.baselines.config import check_total, make_config
     from hadim_cli.config import WorldConfig
 
     cfg = make_config(algo, task, reward, actions, horizon or iterations, eval_every,
                       WorldConfig(), episode_length, checkpoint_every, n_envs)
-    baseline_runs.check_total(iterations, cfg.multiple)
+    check_total(iterations, cfg.multiple)
     _threads()
     with runs.open_store(store) as st:
         record = baseline_runs.new_run(st, cfg, seed, name)
@@ -71,7 +71,7 @@ def resume_baseline(st, record, iterations: int | None, eval_every: int | None,
     """`hadim resume` on a baseline run: every refusal before the agent is restored."""
     from hadim_cli import runs
     from hadim_cli.baselines import runs as baseline_runs
-    from hadim_cli.baselines.agents import read_config
+    from hadim_cli.baselines.config import check_total, read_config
     from hadim_store.records import RunStatus
 
     cfg = read_config(record.config)
@@ -79,7 +79,7 @@ def resume_baseline(st, record, iterations: int | None, eval_every: int | None,
     default = record.iterations if finished else max(cfg.horizon, record.iterations)
     total = iterations or runs.target_iterations(st, record, default)
     multiple = cfg.multiple
-    baseline_runs.check_total(total, multiple)
+    check_total(total, multiple)
     every = cfg.eval_every if eval_every is None else eval_every
     if every % multiple:
         raise HadimError(f"--eval-every must be a multiple of {multiple}, got {every}")

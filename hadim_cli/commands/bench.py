@@ -196,12 +196,12 @@ def baseline(
     import torch
 
     from hadim_cli.baselines import runs as baseline_runs
-    from hadim_cli.baselines.agents import make_config
+    from hadim_cli.baselines.config import check_total, make_config
     from hadim_cli.config import WorldConfig
 
     torch.set_num_threads(1)
     cfg = make_config(algo, task, reward, actions, iterations, 0, WorldConfig(), n_envs=n_envs)
-    baseline_runs.check_total(iterations, cfg.multiple)
+    check_total(iterations, cfg.multiple)
     session = baseline_runs.BaselineSession(cfg, seed)
     start, cpu = time.perf_counter(), time.process_time()
     baseline_runs.train(None, None, session, iterations)

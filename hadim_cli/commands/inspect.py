@@ -366,7 +366,7 @@ def _with_budget(task, budget: int | None):
 
 def _eval_baseline(st, record, chosen, at: int | None):
     from hadim_cli.baselines import runs as baseline_runs
-    from hadim_cli.baselines.evaluate import check_fits
+    from hadim_cli.baselines.config import check_fits
 
     check_fits(baseline_runs.read_config(record.config), chosen)
     session = baseline_runs.restore(st, record, at)
