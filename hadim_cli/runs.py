@@ -131,7 +131,8 @@ def light_reader(option: str | None) -> StoreReader | None:
 def open_reader(option: str | None, *, run: str | None = None) -> StoreReader | Store:
     """The store `option` names, to read a run from: the light reader when the file allows,
     else the full store, opened to read (`open_store`). Both give `get_run`, `list_runs`,
-    `episode_extra`, `episodes`, `checkpoint` and `refuse_if_locked`."""
+    `episode_extra`, `episodes`, `checkpoint`, `checkpoint_iterations` and
+    `refuse_if_locked`."""
     return light_reader(option) or open_store(option, create=False, writes=False, run=run)
 
 

@@ -203,6 +203,12 @@ class StoreReader:
         _, episode, created, _ = rows[chain[-1]]
         return Checkpoint(chain[-1], episode, _moment(created), arrays, texts)
 
+    def checkpoint_iterations(self, name: str) -> list[int]:
+        """As `Store.checkpoint_iterations`: the iterations of the run's checkpoints, in order."""
+        return [it for (it,) in self._conn.execute(
+            "SELECT iteration FROM checkpoints WHERE run_id = ? ORDER BY iteration",
+            (self._run_id(name),))]
+
     def refuse_if_locked(self, name: str,
                          timeout_s: float = locking.DEFAULT_TIMEOUT_S) -> None:
         """Raise `RunLocked`, as `Store.acquire_lock` would, if a live process holds the

@@ -106,6 +106,32 @@ HEAVY = ("torch", "pymunk", "sklearn", "scipy", "matplotlib", "hadim_cli.learner
 seconds, SQLAlchemy half of one (a sound store file is read with sqlite3, hadim_store.reader)."""
 
 
+def _imports(store: Path, commands: list[list[str]], held: str) -> tuple[list[str], str]:
+    """Each command run in turn by one process, against `store` with run `held` locked by
+    a live process: per command, its exit status and which of HEAVY it had imported by its
+    end (a line `loaded: CODE [...]`); and all that was said on stderr."""
+    script = (
+        "import json, sys\n"
+        "from hadim_cli.app import main\n"
+        "for args in json.loads(sys.argv[1]):\n"
+        "    try:\n"
+        f"        main(args + ['--store', {str(store)!r}])\n"
+        "    except SystemExit as exit:\n"
+        "        code = exit.code\n"
+        f"    print('loaded:', code, [m for m in {HEAVY!r} if m in sys.modules])\n")
+    owner = f"{os.uname().nodename}:{os.getpid()}"
+    with Store.open(store, create=False) as st:
+        st.acquire_lock(held, owner)  # held by this live process
+    try:
+        out = subprocess.run([sys.executable, "-c", script, json.dumps(commands)],
+                             capture_output=True, text=True, check=True)
+    finally:
+        with Store.open(store, create=False) as st:
+            st.release_lock(held, owner)
+    return [line for line in out.stdout.splitlines() if line.startswith("loaded:")], \
+        out.stdout + out.stderr
+
+
 def test_refusals_and_h_need_no_learner(store, tmp_path):
     """What does not need the learner never imports it, nor SQLAlchemy: H's table, the runs, and
     the refusals of an unknown run, a finished run, a run in use, a target outside the room,
@@ -121,30 +147,36 @@ def test_refusals_and_h_need_no_learner(store, tmp_path):
                 ["resume", "run-1"], ["resume", "rnu-1"], ["resume", "held", "-n", "200"],
                 ["eval", "run-1", "--points", str(bad)], ["eval", "run-1", "--points", str(broken)],
                 ["eval", "rnu-1", "--points", str(bad)]]
-    script = (
-        "import json, sys\n"
-        "from hadim_cli.app import main\n"
-        "for args in json.loads(sys.argv[1]):\n"
-        "    try:\n"
-        f"        main(args + ['--store', {str(store)!r}])\n"
-        "    except SystemExit as exit:\n"
-        "        code = exit.code\n"
-        f"    print('loaded:', code, [m for m in {HEAVY!r} if m in sys.modules])\n")
-    owner = f"{os.uname().nodename}:{os.getpid()}"
-    with Store.open(store, create=False) as st:
-        st.acquire_lock("held", owner)  # held by this live process
-    try:
-        out = subprocess.run([sys.executable, "-c", script, json.dumps(commands)],
-                             capture_output=True, text=True, check=True)
-    finally:
-        with Store.open(store, create=False) as st:
-            st.release_lock("held", owner)
-    loaded = [line for line in out.stdout.splitlines() if line.startswith("loaded:")]
-    assert loaded == [f"loaded: {0 if i < 4 else 2} []" for i in range(len(commands))], \
-        out.stdout + out.stderr
-    for said in ("is outside the", "is finished at", "is in use", "not valid TOML",
-                 "did you mean run-1"):
-        assert said in out.stderr, out.stderr
+    loaded, said = _imports(store, commands, "held")
+    assert loaded == [f"loaded: {0 if i < 4 else 2} []" for i in range(len(commands))], said
+    for words in ("is outside the", "is finished at", "is in use", "not valid TOML",
+                  "did you mean run-1"):
+        assert words in said, said
+
+
+def test_a_baseline_runs_refusals_need_no_agent(store, tmp_path):
+    """A baseline run's refusals are read with sqlite3 alone, before its agent (torch,
+    stable-baselines3) or the world's physics is imported: resume of a finished run, of a
+    total or period its steps do not divide, of a run in use; eval on a task of another
+    kind or a learner's diagnostic; fork; diagnose of a learner's run or an unknown one."""
+    both = tmp_path / "both.sqlite"
+    shutil.copy(store, both)
+    ok("baseline", "train", "--algo", "q-learning", "--task", "move-robot", "-n", 40,
+       "--eval-every", 0, "--name", "base", "--store", both)
+    commands = [["resume", "base"], ["resume", "base", "-n", "20"], ["resume", "base", "-n", "50"],
+                ["resume", "base", "-n", "80", "--eval-every", "30"],
+                ["resume", "base", "-n", "80"], ["eval", "base", "--task", "push-object"],
+                ["eval", "base", "--task", "reach-pose"],
+                ["eval", "base", "--task", "move-robot", "--animate", str(tmp_path / "a.gif")],
+                ["fork", "base"], ["baseline", "diagnose", "run-1"],
+                ["baseline", "diagnose", "bsae"]]
+    loaded, said = _imports(both, commands, "base")
+    assert loaded == ["loaded: 2 []"] * len(commands), said
+    for words in ("is finished at 40", "already has 40", "of 20 for this baseline run, got 50",
+                  "--eval-every must be a multiple of 20", "is in use", "this run learned",
+                  "asks for headings", "--animate and --exact", "fork is for the learner",
+                  "run-1 is a learner run", "did you mean base"):
+        assert words in said, (words, said)
 
 
 # --------------------------------------------------------------------------- 3. 80 columns

@@ -66,11 +66,12 @@ def train(
                      baseline_runs.train, (cfg.task,))
 
 
-def resume_baseline(st, record, iterations: int | None, eval_every: int | None,
-                    store_option: str | None) -> None:
-    """`hadim resume` on a baseline run: every refusal before the agent is restored."""
+def baseline_plan(st, record, iterations: int | None, eval_every: int | None,
+                  store_option: str | None) -> tuple[int, int]:
+    """The total and evaluation period a baseline run is resumed with, after every refusal
+    that needs no agent: a total or `--eval-every` its agent's steps do not divide, the run
+    already there, a run another live process drives."""
     from hadim_cli import runs
-    from hadim_cli.baselines import runs as baseline_runs
     from hadim_cli.baselines.config import check_total, read_config
     from hadim_store.records import RunStatus
 
@@ -86,10 +87,20 @@ def resume_baseline(st, record, iterations: int | None, eval_every: int | None,
     driver.refuse_reached(record.name, record.iterations, total, iterations is not None,
                           store_option)
     st.refuse_if_locked(record.name)
+    return total, every
+
+
+def resume_baseline(st, record, iterations: int | None, eval_every: int | None,
+                    store_option: str | None) -> None:
+    """`hadim resume` on a baseline run: every refusal before the agent is restored."""
+    from hadim_cli.baselines import runs as baseline_runs
+    from hadim_cli.baselines.config import read_config
+
+    total, every = baseline_plan(st, record, iterations, eval_every, store_option)
     _threads()
     session = baseline_runs.restore(st, record)
     driver.drive(st, record.name, session, total, every, store_option,
-                 baseline_runs.train, (cfg.task,))
+                 baseline_runs.train, (read_config(record.config).task,))
 
 
 @app.command("diagnose")
@@ -107,10 +118,10 @@ def diagnose(
     from hadim_cli import runs
     from hadim_cli.baselines.diagnose import diagnose as measure
 
-    _threads()
-    with runs.open_store(store, create=False, writes=False) as st:
-        if st.get_run(run).config.get("kind") != "baseline":
+    with runs.open_reader(store, run=run) as st:  # sqlite3 alone when the file is sound
+        if runs.run_kind(st.get_run(run)) is not runs.RunKind.BASELINE:
             raise HadimError(f"run {run} is a learner run: diagnose is for baseline runs")
+        _threads()
         found = measure(st, run, block)
     if as_json:
         typer.echo(json.dumps(found, indent=1))

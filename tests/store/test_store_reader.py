@@ -76,6 +76,7 @@ def test_the_reader_reads_what_the_store_reads(path):
         assert reader.list_runs() == st.list_runs()
         for run in ("run-1", "child", "empty"):
             assert reader.get_run(run) == st.get_run(run)
+            assert reader.checkpoint_iterations(run) == st.checkpoint_iterations(run)
             for at in (None, 0, 4, 5, 22, 23, 39, 50, 1000):
                 assert reader.episode_extra(run, at) == st.episode_extra(run, at), (run, at)
                 _same_episodes(reader.episodes(run, at), st.episodes(run, at))
@@ -87,6 +88,7 @@ def test_the_reader_fails_as_the_store_fails(path):
     with Store.open(path, create=False) as st, StoreReader.open(path) as reader:
         for call in (lambda s: s.get_run("run-2"), lambda s: s.episode_extra("chld"),
                      lambda s: s.checkpoint("nope"), lambda s: s.episode_extra("run-1", -1),
+                     lambda s: s.checkpoint_iterations("nope"),
                      lambda s: s.checkpoint("run-1", True)):
             with pytest.raises(StoreError) as by_store:
                 call(st)
