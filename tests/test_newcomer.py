@@ -158,7 +158,11 @@ def test_a_baseline_runs_refusals_need_no_agent(store, tmp_path):
     """A baseline run's refusals are read with sqlite3 alone, before its agent (torch,
     stable-baselines3) or the world's physics is imported: resume of a finished run, of a
     total or period its steps do not divide, of a run in use; eval on a task of another
-    kind or a learner's diagnostic; fork; diagnose of a learner's run or an unknown one."""
+    kind, a target outside the room or a learner's diagnostic; fork; diagnose of a learner's
+    run or an unknown one."""
+    outside = tmp_path / "outside.toml"
+    text = (ROOT / "configs" / "tasks" / "move-robot.toml").read_text()
+    outside.write_text(re.sub(r"points = \[.*?\]\]", "points = [[1.0, 9.0]]", text, flags=re.S))
     both = tmp_path / "both.sqlite"
     shutil.copy(store, both)
     ok("baseline", "train", "--algo", "q-learning", "--task", "move-robot", "-n", 40,
@@ -167,6 +171,7 @@ def test_a_baseline_runs_refusals_need_no_agent(store, tmp_path):
                 ["resume", "base", "-n", "80", "--eval-every", "30"],
                 ["resume", "base", "-n", "80"], ["eval", "base", "--task", "push-object"],
                 ["eval", "base", "--task", "reach-pose"],
+                ["eval", "base", "--points", str(outside)],
                 ["eval", "base", "--task", "move-robot", "--animate", str(tmp_path / "a.gif")],
                 ["fork", "base"], ["baseline", "diagnose", "run-1"],
                 ["baseline", "diagnose", "bsae"]]
@@ -174,8 +179,8 @@ def test_a_baseline_runs_refusals_need_no_agent(store, tmp_path):
     assert loaded == ["loaded: 2 []"] * len(commands), said
     for words in ("is finished at 40", "already has 40", "of 20 for this baseline run, got 50",
                   "--eval-every must be a multiple of 20", "is in use", "this run learned",
-                  "asks for headings", "--animate and --exact", "fork is for the learner",
-                  "run-1 is a learner run", "did you mean base"):
+                  "asks for headings", "point (1, 9) is outside", "--animate and --exact",
+                  "fork is for the learner", "run-1 is a learner run", "did you mean base"):
         assert words in said, (words, said)
 
 
