@@ -20,7 +20,7 @@ from sqlalchemy.orm import Session, sessionmaker
 
 from hadim_store import codecs, deltas, locking
 from hadim_store import engine as engines
-from hadim_store.errors import RunLocked, StoreError, unknown_run
+from hadim_store.errors import RunLocked, StoreError, name_taken, unknown_run
 from hadim_store.models import (
     AffordanceEventRow,
     AffordanceStatRow,
@@ -44,11 +44,11 @@ from hadim_store.records import (
     RunRecord,
     RunStatus,
     check_iteration,
+    check_name,
 )
 from hadim_store.schema import Upgrade
 
 DEFAULT_LOCK_TIMEOUT_S = locking.DEFAULT_TIMEOUT_S
-_NAME_RE = re.compile(r"[A-Za-z0-9][A-Za-z0-9._-]{0,63}")
 _AUTO_NAME_RE = re.compile(r"run-(\d+)")
 _MAX_SEED = 2**63 - 1
 _KIND_MAX = 32
@@ -77,15 +77,6 @@ def _now() -> datetime:
 
 def _aware(moment: datetime) -> datetime:
     return moment.replace(tzinfo=UTC)
-
-
-def _check_name(name: str) -> str:
-    if not isinstance(name, str) or not _NAME_RE.fullmatch(name):
-        raise StoreError(
-            f"invalid run name {name!r}: use 1-64 letters, digits, '.', '_' or '-', "
-            "starting with a letter or digit"
-        )
-    return name
 
 
 def _locate(url: str | Path, *, create: bool) -> tuple[URL, str]:
@@ -285,7 +276,7 @@ class Store:
         """Record a sweep's settings under its name; True if new, False if the same settings
         are already recorded. Other settings under a recorded name raise :class:`StoreError`
         and change nothing. Kept in ``meta`` as ``sweep:NAME`` (no schema change)."""
-        key = f"{_SWEEP_PREFIX}{_check_name(name)}"
+        key = f"{_SWEEP_PREFIX}{check_name(name)}"
         if len(key) > _META_KEY_MAX:
             raise StoreError(f"sweep name {name!r} is too long")
         wanted = codecs.encode_json(dict(settings))
@@ -769,9 +760,9 @@ class Store:
         if name is None:
             name = _next_auto_name(session)
         else:
-            _check_name(name)
+            check_name(name)
             if session.scalar(select(Run.id).where(Run.name == name)) is not None:
-                raise StoreError(f"a run named {name!r} already exists")
+                raise name_taken(name)
         now = _now()
         row = Run(
             name=name,
@@ -789,7 +780,7 @@ class Store:
         try:
             session.flush()
         except IntegrityError as exc:
-            raise StoreError(f"a run named {name!r} already exists") from exc
+            raise name_taken(name) from exc
         return row
 
 

@@ -20,13 +20,14 @@ from pathlib import Path
 from typing import Any
 
 from hadim_store import codecs, deltas, locking, migrations
-from hadim_store.errors import RunLocked, unknown_run
+from hadim_store.errors import RunLocked, name_taken, unknown_run
 from hadim_store.records import (
     Checkpoint,
     EpisodeRecord,
     RunRecord,
     RunStatus,
     check_iteration,
+    check_name,
 )
 
 SQLITE_HEADER = b"SQLite format 3\x00"
@@ -208,6 +209,13 @@ class StoreReader:
         return [it for (it,) in self._conn.execute(
             "SELECT iteration FROM checkpoints WHERE run_id = ? ORDER BY iteration",
             (self._run_id(name),))]
+
+    def refuse_taken(self, name: str) -> None:
+        """Raise `StoreError`, as `Store.create_run` would, if `name` is not a run name or a
+        run has it already."""
+        check_name(name)
+        if self._conn.execute("SELECT 1 FROM runs WHERE name = ?", (name,)).fetchone():
+            raise name_taken(name)
 
     def refuse_if_locked(self, name: str,
                          timeout_s: float = locking.DEFAULT_TIMEOUT_S) -> None:

@@ -106,7 +106,8 @@ HEAVY = ("torch", "pymunk", "sklearn", "scipy", "matplotlib", "hadim_cli.learner
 seconds, SQLAlchemy half of one (a sound store file is read with sqlite3, hadim_store.reader)."""
 
 
-def _imports(store: Path, commands: list[list[str]], held: str) -> tuple[list[str], str]:
+def _imports(store: Path, commands: list[list[str]], held: str | None = None
+             ) -> tuple[list[str], str]:
     """Each command run in turn by one process, against `store` with run `held` locked by
     a live process: per command, its exit status and which of HEAVY it had imported by its
     end (a line `loaded: CODE [...]`); and all that was said on stderr."""
@@ -120,14 +121,16 @@ def _imports(store: Path, commands: list[list[str]], held: str) -> tuple[list[st
         "        code = exit.code\n"
         f"    print('loaded:', code, [m for m in {HEAVY!r} if m in sys.modules])\n")
     owner = f"{os.uname().nodename}:{os.getpid()}"
-    with Store.open(store, create=False) as st:
-        st.acquire_lock(held, owner)  # held by this live process
+    if held is not None:
+        with Store.open(store, create=False) as st:
+            st.acquire_lock(held, owner)  # held by this live process
     try:
         out = subprocess.run([sys.executable, "-c", script, json.dumps(commands)],
                              capture_output=True, text=True, check=True)
     finally:
-        with Store.open(store, create=False) as st:
-            st.release_lock(held, owner)
+        if held is not None:
+            with Store.open(store, create=False) as st:
+                st.release_lock(held, owner)
     return [line for line in out.stdout.splitlines() if line.startswith("loaded:")], \
         out.stdout + out.stderr
 
@@ -182,6 +185,31 @@ def test_a_baseline_runs_refusals_need_no_agent(store, tmp_path):
                   "asks for headings", "point (1, 9) is outside", "--animate and --exact",
                   "fork is for the learner", "run-1 is a learner run", "did you mean base"):
         assert words in said, (words, said)
+
+
+def test_a_new_runs_refusals_need_no_learner_nor_agent(store, tmp_path):
+    """`train`, `fork` and `baseline train` refuse, before importing the learner, an agent or
+    SQLAlchemy: a name taken or malformed, a directory for a store, an unknown config key,
+    an evaluation period episodes do not divide, an algorithm, task or combination the
+    comparison lacks, a total or period a baseline's steps do not divide."""
+    q = ["baseline", "train", "--algo", "q-learning", "--task", "move-robot"]
+    commands = [["train", "--name", "run-1"], ["train", "--name", "a b"],
+                ["train", "--set", "nope.x=1"], ["train", "--eval-every", "30"],
+                ["fork", "run-1", "--name", "run-1"], [*q, "--name", "run-1"],
+                ["baseline", "train", "--algo", "nope", "--task", "move-robot"],
+                ["baseline", "train", "--algo", "q-learning", "--task", "nope"],
+                [*q, "--actions", "continuous"], [*q, "-n", "1010"],
+                ["baseline", "train", "--algo", "dqn", "--task", "move-robot", "--eval-every",
+                 "30"]]
+    loaded, said = _imports(store, commands)
+    assert loaded == ["loaded: 2 []"] * len(commands), said
+    for words in ("'run-1' already exists", "invalid run name 'a b'", "unknown config key",
+                  "multiple of the episode length", "unknown algorithm 'nope'",
+                  "unknown task 'nope'", "needs --actions discrete", "got 1010",
+                  "--eval-every must be a multiple of 20"):
+        assert words in said, (words, said)
+    loaded, said = _imports(tmp_path, [["train"], q])
+    assert loaded == ["loaded: 2 []"] * 2 and said.count("is a directory") == 2, said
 
 
 # --------------------------------------------------------------------------- 3. 80 columns

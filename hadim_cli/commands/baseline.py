@@ -50,17 +50,19 @@ def train(
 ) -> None:
     """Train a baseline on one task and store it as a run; prints the run's name."""
     from hadim_cli import runs
-    from hadim_cli.baselines import runs as baseline_runs
     from hadim_cli.baselines.config import check_total, make_config
     from hadim_cli.config import WorldConfig
 
     cfg = make_config(algo, task, reward, actions, horizon or iterations, eval_every,
                       WorldConfig(), episode_length, checkpoint_every, n_envs)
     check_total(iterations, cfg.multiple)
-    _threads()
+    runs.refuse_new_run(store, name)
+    from hadim_cli.baselines import runs as baseline_runs  # torch: after every refusal
+
     with runs.open_store(store) as st:
         record = baseline_runs.new_run(st, cfg, seed, name)
         typer.echo(record.name)
+        _threads()
         session = baseline_runs.BaselineSession(cfg, seed)
         driver.drive(st, record.name, session, iterations, eval_every, store,
                      baseline_runs.train, (cfg.task,))

@@ -44,10 +44,12 @@ def train(
     Ctrl-C pauses it (exit status 130) and prints the command that continues it."""
     from hadim_cli import runs
     from hadim_cli.config import load_config
-    from hadim_cli.session import Session
 
     resolved = load_config(config, set_ or [])
     every = _eval_every(eval_every, resolved)
+    runs.refuse_new_run(store, name)
+    from hadim_cli.session import Session  # the learner and torch: after every refusal
+
     with runs.open_store(store) as st:
         record = runs.new_run(st, resolved, seed, name)
         typer.echo(record.name)
@@ -130,6 +132,7 @@ def fork(
     if reader is not None:  # the refusals that need no learner, read with sqlite3 alone
         with reader:
             _fork_config(reader.get_run(run), set_)
+    runs.refuse_new_run(store, name)
     with runs.open_store(store, create=False, run=run) as st:
         parent = st.get_run(run)
         config = _fork_config(parent, set_)

@@ -97,6 +97,13 @@ def test_the_reader_fails_as_the_store_fails(path):
             assert (type(by_reader.value), str(by_reader.value)) == \
                 (type(by_store.value), str(by_store.value))
         assert isinstance(by_store.value, StoreError)
+        for name in ("run-1", "no spaces"):  # a name taken, a name no run may have
+            with pytest.raises(StoreError) as by_store:
+                st.create_run(config={}, seed=0, name=name)
+            with pytest.raises(StoreError) as by_reader:
+                reader.refuse_taken(name)
+            assert str(by_reader.value) == str(by_store.value)
+        reader.refuse_taken("run-3")  # free
         with pytest.raises(UnknownRun, match="did you mean run-1"):
             reader.get_run("run-2")
         # A live holder: the store's refusal, word for word up to the heartbeat's age.
