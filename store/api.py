@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import hashlib
 import numbers
 import os
 import re
@@ -11,7 +10,7 @@ from collections.abc import Iterator, Mapping, Sequence
 from contextlib import contextmanager
 from datetime import UTC, datetime
 from pathlib import Path
-from typing import Any, NamedTuple
+from typing import Any
 
 import numpy as np
 from sqlalchemy import URL, Engine, Select, delete, func, insert, literal, select, text, update
@@ -19,7 +18,9 @@ from sqlalchemy.exc import IntegrityError
 from sqlalchemy.orm import Session, sessionmaker
 
 from hadim_store import codecs, deltas, locking
+from hadim_store import dataset as datasets
 from hadim_store import engine as engines
+from hadim_store.dataset import DatasetArrays
 from hadim_store.errors import RunLocked, StoreError, name_taken, unknown_run
 from hadim_store.models import (
     AffordanceEventRow,
@@ -52,7 +53,6 @@ DEFAULT_LOCK_TIMEOUT_S = locking.DEFAULT_TIMEOUT_S
 _AUTO_NAME_RE = re.compile(r"run-(\d+)")
 _MAX_SEED = 2**63 - 1
 _KIND_MAX = 32
-_DIGEST_PREFIX = b"hadim-dataset-sha256-v1\n"
 # On a database server, write scopes lock the rows of the runs they touch (SELECT … FOR UPDATE)
 # and auto-naming takes this advisory lock; SQLite's BEGIN IMMEDIATE serialises writes anyway.
 _LOCK_RUN_ROWS = "hadim_lock_run_rows"
@@ -63,12 +63,6 @@ _META_KEY_MAX = 64
 _PER_EPISODE = (Episode, AffordanceEventRow, AffordanceStatRow, InterestRegionRow)
 
 
-class DatasetArrays(NamedTuple):
-    """D as three arrays with one row per iteration."""
-
-    actions: np.ndarray
-    contexts: np.ndarray
-    outcomes: np.ndarray
 
 
 def _now() -> datetime:
@@ -441,33 +435,14 @@ class Store:
             if upto is not None:
                 query = query.where(Episode.first_iteration < upto)
             rows = [_episode_record(row) for row in session.scalars(query)]
-        if not rows:
-            return DatasetArrays(*(np.empty((0,), dtype=np.float64) for _ in range(3)))
-        parts = []
-        for key in DatasetArrays._fields:
-            try:
-                array = np.concatenate([getattr(row, key) for row in rows])
-            except ValueError as exc:
-                raise StoreError(f"run {name!r}: episodes' {key} do not stack: {exc}") from exc
-            if upto is not None:
-                array = array[: max(upto - rows[0].first_iteration, 0)]
-            array.flags.writeable = False
-            parts.append(array)
-        return DatasetArrays(*parts)
+        return datasets.stack(name, rows, upto)
 
     def dataset_sha256(self, name: str, upto_iteration: int | None = None) -> str:
         """A digest of D (dtype, shape and bytes of actions, contexts, outcomes, in that order).
 
         Equal data sets give equal digests however they were split into episodes.
         """
-        digest = hashlib.sha256(_DIGEST_PREFIX)
-        for key, array in zip(
-            DatasetArrays._fields, self.dataset(name, upto_iteration), strict=True
-        ):
-            array = np.ascontiguousarray(array)
-            digest.update(f"{key}|{array.dtype.str}|{array.shape}\n".encode())
-            digest.update(array.tobytes())
-        return digest.hexdigest()
+        return datasets.digest(self.dataset(name, upto_iteration))
 
     # ---------------------------------------------------------- learner state
 
