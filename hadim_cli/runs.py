@@ -30,10 +30,10 @@ from hadim_store.records import (
 )
 
 # The learner (and torch, through p_A) is imported inside the functions that need it, and so
-# is the full store (SQLAlchemy): commands that only look at a run (`affordances RUN`, the
-# refusals of `resume` and `eval`) read a sound store file with sqlite3 alone (`open_reader`)
-# and answer in well under a second; importing torch alone takes seconds, SQLAlchemy half of
-# one.
+# is the full store (SQLAlchemy): commands that only look at a run (`runs show`, `affordances`,
+# `plot`, the refusals of `resume`, `eval` and `fork`) read a sound store file with sqlite3
+# alone (`open_reader`, `light_reader`) and answer in under a second; importing torch alone
+# takes seconds, SQLAlchemy half of one.
 if TYPE_CHECKING:
     from hadim_cli.evaluation.runner import TaskResult
     from hadim_cli.learner.hierarchy import Event
@@ -153,9 +153,8 @@ def refuse_new_run(option: str | None, name: str | None) -> None:
 
 def open_reader(option: str | None, *, run: str | None = None) -> StoreReader | Store:
     """The store `option` names, to read a run from: the light reader when the file allows,
-    else the full store, opened to read (`open_store`). Both give `get_run`, `list_runs`,
-    `episode_extra`, `episodes`, `checkpoint`, `checkpoint_iterations` and
-    `refuse_if_locked`."""
+    else the full store, opened to read (`open_store`). Both give the reading methods of
+    `hadim_store.reader.StoreReader`."""
     return light_reader(option) or open_store(option, create=False, writes=False, run=run)
 
 

@@ -157,6 +157,47 @@ def test_refusals_and_h_need_no_learner(store, tmp_path):
         assert words in said, said
 
 
+def test_reading_a_run_needs_no_sqlalchemy(store, tmp_path):
+    """`runs show`, the timeline, `plot` and the refusals of `bench eval` read a sound store
+    file with sqlite3 alone: none imports SQLAlchemy or the learner (the figures are drawn
+    with matplotlib, last here)."""
+    commands = [["runs", "show", "run-1"], ["runs", "show", "--json"],
+                ["affordances", "run-1", "--timeline"],
+                ["affordances", "run-1", "--timeline", "--at", "50", "--json"],
+                ["bench", "eval", "run-1", "--at", "1000"],
+                ["affordances", "--timeline", "--out", str(tmp_path / "t.png")],
+                ["plot", "run-1", "--out", str(tmp_path / "c.png")]]
+    loaded, said = _imports(store, commands)
+    assert loaded == ["loaded: 0 []"] * 4 + ["loaded: 2 []"] + \
+        ["loaded: 0 ['matplotlib']"] * 2, said
+
+
+@pytest.mark.parametrize("args", [
+    ("runs", "show", "run-1"), ("runs", "show", "run-1", "--json"), ("runs", "list", "--json"),
+    ("affordances", "run-1", "--timeline"), ("affordances", "run-1", "--timeline", "--json"),
+    ("affordances", "run-1", "--json"), ("affordances", "run-1", "--timeline", "--out", "{png}"),
+    ("plot", "run-1", "--out", "{png}")])
+def test_the_light_reader_and_the_store_answer_alike(store, tmp_path, monkeypatch, args):
+    """What a read command prints (and draws) is the same whether the file was read with
+    sqlite3 alone or through the full store (as an older schema or a server is)."""
+    from typer.testing import CliRunner
+
+    from hadim_cli import runs
+    from hadim_cli.app import app
+
+    answers = []
+    for light in (True, False):
+        png = tmp_path / f"{light}.png"
+        if not light:
+            monkeypatch.setattr(runs, "light_reader", lambda option: None)
+        result = CliRunner().invoke(app, [a.format(png=png) for a in args] +
+                                    ["--store", str(store)])
+        assert result.exit_code == 0, (result.stderr, result.exception)
+        answers.append((result.stdout.replace(str(png), "PNG"),
+                        png.read_bytes() if png.exists() else None))
+    assert answers[0] == answers[1], args
+
+
 def test_a_baseline_runs_refusals_need_no_agent(store, tmp_path):
     """A baseline run's refusals are read with sqlite3 alone, before its agent (torch,
     stable-baselines3) or the world's physics is imported: resume of a finished run, of a

@@ -99,7 +99,7 @@ def runs_show(run: RunArg = None, store: StoreOption = None, as_json: JsonOption
 
     from hadim_cli import runs
 
-    with runs.open_store(store, create=False, writes=False, run=run) as st:
+    with runs.open_reader(store, run=run) as st:  # sqlite3 alone when the file is sound
         r = runs.chosen_run(st, run)
         run = r.name
         # |H| from the last episode's per-affordance stats: decoding the checkpoint's arrays
@@ -188,7 +188,7 @@ def affordances(
         raise HadimError("--errors shows the models of H at one iteration: not with --pa, "
                          "--timeline or --out")
     if timeline or out is not None:
-        with runs.open_store(store, create=False, writes=False, run=run) as st:
+        with runs.open_reader(store, run=run) as st:
             record = _learner_run(st, run, at, "affordances")
             _show_timeline(st.events(record.name, upto_iteration=at), record, at, out, as_json)
         return
@@ -413,8 +413,7 @@ def plot(
     from hadim_cli.plots import comparison_figure, competence_figure
 
     groups: dict[str, list] = {}
-    with runs.open_store(store, create=False, writes=False,
-                         run=run[0] if run and len(run) == 1 else None) as st:
+    with runs.open_reader(store, run=run[0] if run and len(run) == 1 else None) as st:
         run = run or [runs.chosen_run(st, None).name]
         for name in dict.fromkeys(run):
             record = runs.chosen_run(st, name)
