@@ -30,10 +30,10 @@ from hadim_store.records import (
 )
 
 # The learner (and torch, through p_A) is imported inside the functions that need it, and so
-# is the full store (SQLAlchemy): commands that only look at a run (`affordances RUN`, the
-# refusals of `resume` and `eval`) read a sound store file with sqlite3 alone (`open_reader`)
-# and answer in well under a second; importing torch alone takes seconds, SQLAlchemy half of
-# one.
+# is the full store (SQLAlchemy): commands that only look at a run (`runs show`, `affordances`,
+# `plot`, the refusals of `resume`, `eval` and `fork`) read a sound store file with sqlite3
+# alone (`open_reader`, `light_reader`) and answer in under a second; importing torch alone
+# takes seconds, SQLAlchemy half of one.
 if TYPE_CHECKING:
     from hadim_cli.evaluation.runner import TaskResult
     from hadim_cli.learner.hierarchy import Event
@@ -86,19 +86,16 @@ def open_store(option: str | None, *, create: bool = True, writes: bool = True,
     (SQLite's `PRAGMA quick_check`, well under a second): one that `writes` is refused if
     damaged, rather than written into; for one that only reads, the findings are kept for
     `chosen_run` and `damaged_runs`."""
-    from hadim_store import engine
-    from hadim_store.api import Store
-    from hadim_store.errors import DamagedStore
-
     where = store_location(option)
     opened[:] = [where]
     reading.clear()
     file_damage.clear()
     is_file = "://" not in where
-    if not create and is_file and not Path(where).exists():
-        raise HadimError(f"no store at {where}: start a run with `hadim train`, or pass --store")
-    if is_file and Path(where).is_dir():
-        raise HadimError(f"{where} is a directory, not a store file")
+    _check_path(where, create=create)
+    from hadim_store import engine  # SQLAlchemy: after the refusals that need none
+    from hadim_store.api import Store
+    from hadim_store.errors import DamagedStore
+
     if is_file and Path(where).is_file() and Path(where).stat().st_size > 0:
         try:
             engine.check_sqlite_file(Path(where), create=create)
@@ -128,10 +125,36 @@ def light_reader(option: str | None) -> StoreReader | None:
     return reader
 
 
+def _check_path(where: str, *, create: bool) -> None:
+    """The refusals of a store file's path: no file there (to read one), a directory."""
+    if "://" in where:
+        return
+    if not create and not Path(where).exists():
+        raise HadimError(f"no store at {where}: start a run with `hadim train`, or pass --store")
+    if Path(where).is_dir():
+        raise HadimError(f"{where} is a directory, not a store file")
+
+
+def refuse_new_run(option: str | None, name: str | None) -> None:
+    """Refuse, before anything heavy is imported, what the store `option` names would refuse
+    of a new run: a directory in its place, a `--name` malformed or a run's already (when a
+    light reader can tell). The store refuses them again as it creates the run."""
+    from hadim_store.records import check_name
+
+    _check_path(store_location(option), create=True)
+    if name is None:
+        return
+    check_name(name)
+    reader = light_reader(option)
+    if reader is not None:
+        with reader:
+            reader.refuse_taken(name)
+
+
 def open_reader(option: str | None, *, run: str | None = None) -> StoreReader | Store:
     """The store `option` names, to read a run from: the light reader when the file allows,
-    else the full store, opened to read (`open_store`). Both give `get_run`, `list_runs`,
-    `episode_extra`, `episodes`, `checkpoint` and `refuse_if_locked`."""
+    else the full store, opened to read (`open_store`). Both give the reading methods of
+    `hadim_store.reader.StoreReader`."""
     return light_reader(option) or open_store(option, create=False, writes=False, run=run)
 
 

@@ -409,18 +409,9 @@ def time_restore(args: argparse.Namespace) -> None:
 
 def _digest(*arrays) -> str:
     """`Store.dataset_sha256` of these arrays of D (actions, contexts, outcomes)."""
-    import hashlib
+    from hadim_store.dataset import DatasetArrays, digest
 
-    import numpy as np
-
-    from hadim_store.api import _DIGEST_PREFIX, DatasetArrays
-
-    digest = hashlib.sha256(_DIGEST_PREFIX)
-    for key, array in zip(DatasetArrays._fields, arrays, strict=True):
-        array = np.ascontiguousarray(array)
-        digest.update(f"{key}|{array.dtype.str}|{array.shape}\n".encode())
-        digest.update(array.tobytes())
-    return digest.hexdigest()
+    return digest(DatasetArrays(*arrays))
 
 
 def delta_bytes(args: argparse.Namespace) -> None:

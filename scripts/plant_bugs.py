@@ -532,7 +532,7 @@ BUGS = (
         "start = np.where(modules == 0, 0, 2 + 2 * modules)",
         "start = np.where(modules == 0, 0, 4 + 2 * modules)",
         f"{CUR}::test_encoding_of_many_goals_is_the_env_encoding"),
-    Bug("curious-k-not-4", "hadim_cli/baselines/agents.py",
+    Bug("curious-k-not-4", "hadim_cli/baselines/config.py",
         'HER_PARAMS: dict[str, Any] = {"n_sampled_goal": 4,',
         'HER_PARAMS: dict[str, Any] = {"n_sampled_goal": 2,',
         f"{CUR}::test_modular_her_replays_four_relabelled_transitions_per_real_one"),

@@ -12,7 +12,7 @@ from typing import Any
 # Submodules are imported on first use: `import hadim_store.errors` must stay cheap (the CLI's
 # `--help` imports it), while `hadim_store.api` pulls in SQLAlchemy.
 _WHERE = {
-    "DatasetArrays": "api", "Store": "api", "upgrade_store": "api",
+    "DatasetArrays": "dataset", "Store": "api", "upgrade_store": "api",
     "StoreReader": "reader",
     "Upgrade": "schema",
     "CodecError": "errors", "RunLocked": "errors", "SchemaError": "errors",

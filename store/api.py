@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import hashlib
 import numbers
 import os
 import re
@@ -11,7 +10,7 @@ from collections.abc import Iterator, Mapping, Sequence
 from contextlib import contextmanager
 from datetime import UTC, datetime
 from pathlib import Path
-from typing import Any, NamedTuple
+from typing import Any
 
 import numpy as np
 from sqlalchemy import URL, Engine, Select, delete, func, insert, literal, select, text, update
@@ -19,8 +18,10 @@ from sqlalchemy.exc import IntegrityError
 from sqlalchemy.orm import Session, sessionmaker
 
 from hadim_store import codecs, deltas, locking
+from hadim_store import dataset as datasets
 from hadim_store import engine as engines
-from hadim_store.errors import RunLocked, StoreError, unknown_run
+from hadim_store.dataset import DatasetArrays
+from hadim_store.errors import RunLocked, StoreError, name_taken, unknown_run
 from hadim_store.models import (
     AffordanceEventRow,
     AffordanceStatRow,
@@ -44,15 +45,14 @@ from hadim_store.records import (
     RunRecord,
     RunStatus,
     check_iteration,
+    check_name,
 )
 from hadim_store.schema import Upgrade
 
 DEFAULT_LOCK_TIMEOUT_S = locking.DEFAULT_TIMEOUT_S
-_NAME_RE = re.compile(r"[A-Za-z0-9][A-Za-z0-9._-]{0,63}")
 _AUTO_NAME_RE = re.compile(r"run-(\d+)")
 _MAX_SEED = 2**63 - 1
 _KIND_MAX = 32
-_DIGEST_PREFIX = b"hadim-dataset-sha256-v1\n"
 # On a database server, write scopes lock the rows of the runs they touch (SELECT … FOR UPDATE)
 # and auto-naming takes this advisory lock; SQLite's BEGIN IMMEDIATE serialises writes anyway.
 _LOCK_RUN_ROWS = "hadim_lock_run_rows"
@@ -63,12 +63,6 @@ _META_KEY_MAX = 64
 _PER_EPISODE = (Episode, AffordanceEventRow, AffordanceStatRow, InterestRegionRow)
 
 
-class DatasetArrays(NamedTuple):
-    """D as three arrays with one row per iteration."""
-
-    actions: np.ndarray
-    contexts: np.ndarray
-    outcomes: np.ndarray
 
 
 def _now() -> datetime:
@@ -77,15 +71,6 @@ def _now() -> datetime:
 
 def _aware(moment: datetime) -> datetime:
     return moment.replace(tzinfo=UTC)
-
-
-def _check_name(name: str) -> str:
-    if not isinstance(name, str) or not _NAME_RE.fullmatch(name):
-        raise StoreError(
-            f"invalid run name {name!r}: use 1-64 letters, digits, '.', '_' or '-', "
-            "starting with a letter or digit"
-        )
-    return name
 
 
 def _locate(url: str | Path, *, create: bool) -> tuple[URL, str]:
@@ -285,7 +270,7 @@ class Store:
         """Record a sweep's settings under its name; True if new, False if the same settings
         are already recorded. Other settings under a recorded name raise :class:`StoreError`
         and change nothing. Kept in ``meta`` as ``sweep:NAME`` (no schema change)."""
-        key = f"{_SWEEP_PREFIX}{_check_name(name)}"
+        key = f"{_SWEEP_PREFIX}{check_name(name)}"
         if len(key) > _META_KEY_MAX:
             raise StoreError(f"sweep name {name!r} is too long")
         wanted = codecs.encode_json(dict(settings))
@@ -450,33 +435,14 @@ class Store:
             if upto is not None:
                 query = query.where(Episode.first_iteration < upto)
             rows = [_episode_record(row) for row in session.scalars(query)]
-        if not rows:
-            return DatasetArrays(*(np.empty((0,), dtype=np.float64) for _ in range(3)))
-        parts = []
-        for key in DatasetArrays._fields:
-            try:
-                array = np.concatenate([getattr(row, key) for row in rows])
-            except ValueError as exc:
-                raise StoreError(f"run {name!r}: episodes' {key} do not stack: {exc}") from exc
-            if upto is not None:
-                array = array[: max(upto - rows[0].first_iteration, 0)]
-            array.flags.writeable = False
-            parts.append(array)
-        return DatasetArrays(*parts)
+        return datasets.stack(name, rows, upto)
 
     def dataset_sha256(self, name: str, upto_iteration: int | None = None) -> str:
         """A digest of D (dtype, shape and bytes of actions, contexts, outcomes, in that order).
 
         Equal data sets give equal digests however they were split into episodes.
         """
-        digest = hashlib.sha256(_DIGEST_PREFIX)
-        for key, array in zip(
-            DatasetArrays._fields, self.dataset(name, upto_iteration), strict=True
-        ):
-            array = np.ascontiguousarray(array)
-            digest.update(f"{key}|{array.dtype.str}|{array.shape}\n".encode())
-            digest.update(array.tobytes())
-        return digest.hexdigest()
+        return datasets.digest(self.dataset(name, upto_iteration))
 
     # ---------------------------------------------------------- learner state
 
@@ -769,9 +735,9 @@ class Store:
         if name is None:
             name = _next_auto_name(session)
         else:
-            _check_name(name)
+            check_name(name)
             if session.scalar(select(Run.id).where(Run.name == name)) is not None:
-                raise StoreError(f"a run named {name!r} already exists")
+                raise name_taken(name)
         now = _now()
         row = Run(
             name=name,
@@ -789,7 +755,7 @@ class Store:
         try:
             session.flush()
         except IntegrityError as exc:
-            raise StoreError(f"a run named {name!r} already exists") from exc
+            raise name_taken(name) from exc
         return row
 
 

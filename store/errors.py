@@ -29,6 +29,10 @@ def unknown_run(name: str, names: Sequence[str]) -> UnknownRun:
     return UnknownRun(f"no run named {name!r}{hint}")
 
 
+def name_taken(name: str) -> StoreError:
+    return StoreError(f"a run named {name!r} already exists")
+
+
 class SchemaError(StoreError):
     """The file is not a hadim store, is corrupt, or has a schema this hadim cannot read."""
 

@@ -20,13 +20,19 @@ from pathlib import Path
 from typing import Any
 
 from hadim_store import codecs, deltas, locking, migrations
-from hadim_store.errors import RunLocked, unknown_run
+from hadim_store import dataset as datasets
+from hadim_store.dataset import DatasetArrays
+from hadim_store.errors import RunLocked, name_taken, unknown_run
 from hadim_store.records import (
+    AffordanceEvent,
+    AffordanceStat,
     Checkpoint,
     EpisodeRecord,
+    Evaluation,
     RunRecord,
     RunStatus,
     check_iteration,
+    check_name,
 )
 
 SQLITE_HEADER = b"SQLite format 3\x00"
@@ -170,15 +176,71 @@ class StoreReader:
         """As `Store.episodes`: the stored episodes in order (those finished by
         ``upto_iteration``)."""
         upto = check_iteration(upto_iteration, "upto_iteration")
+        return self._episodes(name, "first_iteration + n_iterations <= ?", upto)
+
+    def _episodes(self, name: str, until: str, upto: int | None) -> list[EpisodeRecord]:
         query = ("SELECT episode_index, first_iteration, array_codec, actions, contexts, "
                  "outcomes, extra_json FROM episodes WHERE run_id = ?")
         args: tuple = (self._run_id(name),)
         if upto is not None:
-            query, args = f"{query} AND first_iteration + n_iterations <= ?", (*args, upto)
+            query, args = f"{query} AND {until}", (*args, upto)
         return [EpisodeRecord(index, first, *(codecs.decode_array(a, codec) for a in arrays),
                               codecs.decode_json(extra))
                 for index, first, codec, *arrays, extra in
                 self._conn.execute(f"{query} ORDER BY episode_index", args)]
+
+    def dataset(self, name: str, upto_iteration: int | None = None) -> DatasetArrays:
+        """As `Store.dataset`: D's rows in order (the first ``upto_iteration``)."""
+        upto = check_iteration(upto_iteration, "upto_iteration")
+        return datasets.stack(name, self._episodes(name, "first_iteration < ?", upto), upto)
+
+    def dataset_sha256(self, name: str, upto_iteration: int | None = None) -> str:
+        """As `Store.dataset_sha256`: the digest of D (of its first ``upto_iteration`` rows)."""
+        return datasets.digest(self.dataset(name, upto_iteration))
+
+    def events(self, name: str, upto_iteration: int | None = None, *,
+               affordance_id: int | None = None) -> list[AffordanceEvent]:
+        """As `Store.events`: H's timeline, oldest first (events at ≤ ``upto_iteration``)."""
+        return [AffordanceEvent(iteration, aid, kind, given, taken,
+                                tuple(codecs.decode_json(context)), competence,
+                                codecs.decode_json(detail))
+                for iteration, aid, kind, given, taken, context, competence, detail in
+                self._per_episode("affordance_events", "kind, input_space, output_space, "
+                                  "context_json, competence, detail_json", name,
+                                  upto_iteration, affordance_id, "iteration, id")]
+
+    def stats(self, name: str, upto_iteration: int | None = None, *,
+              affordance_id: int | None = None) -> list[AffordanceStat]:
+        """As `Store.stats`: per-episode affordance snapshots, by iteration then id."""
+        return [AffordanceStat(*row) for row in self._per_episode(
+            "affordance_stats", "competence, n_data, interest", name, upto_iteration,
+            affordance_id, "iteration, affordance_id, id")]
+
+    def _per_episode(self, table: str, columns: str, name: str, upto_iteration: int | None,
+                     affordance_id: int | None, order: str) -> list[tuple]:
+        """(iteration, affordance_id, *columns) of the run's rows of `table`, by `order`."""
+        upto = check_iteration(upto_iteration, "upto_iteration")
+        query = (f"SELECT iteration, affordance_id, {columns} FROM {table} "
+                 "WHERE run_id = ?")
+        args: tuple = (self._run_id(name),)
+        if upto is not None:
+            query, args = f"{query} AND iteration <= ?", (*args, upto)
+        if affordance_id is not None:
+            query, args = f"{query} AND affordance_id = ?", (*args, affordance_id)
+        return self._conn.execute(f"{query} ORDER BY {order}", args).fetchall()
+
+    def evaluations(self, name: str, task: str | None = None) -> list[Evaluation]:
+        """As `Store.evaluations`: by iteration then insertion order; only ``task``'s if
+        given."""
+        query = ("SELECT iteration, task, score, points_json, created_at FROM evaluations "
+                 "WHERE run_id = ?")
+        args: tuple = (self._run_id(name),)
+        if task is not None:
+            query, args = f"{query} AND task = ?", (*args, task)
+        return [Evaluation(iteration, measured, score, codecs.decode_json(points),
+                           _moment(created))
+                for iteration, measured, score, points, created in
+                self._conn.execute(f"{query} ORDER BY iteration, id", args)]
 
     def checkpoint(self, name: str, at_or_before: int | None = None) -> Checkpoint | None:
         """As `Store.checkpoint`: the latest checkpoint at or before ``at_or_before``, read
@@ -202,6 +264,19 @@ class StoreReader:
         arrays, texts = deltas.resolve([levels[cid] for cid in ids])
         _, episode, created, _ = rows[chain[-1]]
         return Checkpoint(chain[-1], episode, _moment(created), arrays, texts)
+
+    def checkpoint_iterations(self, name: str) -> list[int]:
+        """As `Store.checkpoint_iterations`: the iterations of the run's checkpoints, in order."""
+        return [it for (it,) in self._conn.execute(
+            "SELECT iteration FROM checkpoints WHERE run_id = ? ORDER BY iteration",
+            (self._run_id(name),))]
+
+    def refuse_taken(self, name: str) -> None:
+        """Raise `StoreError`, as `Store.create_run` would, if `name` is not a run name or a
+        run has it already."""
+        check_name(name)
+        if self._conn.execute("SELECT 1 FROM runs WHERE name = ?", (name,)).fetchone():
+            raise name_taken(name)
 
     def refuse_if_locked(self, name: str,
                          timeout_s: float = locking.DEFAULT_TIMEOUT_S) -> None:

@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import enum
 import numbers
+import re
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 from datetime import datetime
@@ -16,6 +17,18 @@ from typing import Any
 import numpy as np
 
 from hadim_store.errors import StoreError
+
+_NAME_RE = re.compile(r"[A-Za-z0-9][A-Za-z0-9._-]{0,63}")
+
+
+def check_name(name: str) -> str:
+    """A run's (or sweep's) name a caller passes: 1-64 letters, digits, '.', '_' or '-'."""
+    if not isinstance(name, str) or not _NAME_RE.fullmatch(name):
+        raise StoreError(
+            f"invalid run name {name!r}: use 1-64 letters, digits, '.', '_' or '-', "
+            "starting with a letter or digit"
+        )
+    return name
 
 
 def check_iteration(value: int | None, what: str) -> int | None:

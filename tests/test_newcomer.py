@@ -106,6 +106,35 @@ HEAVY = ("torch", "pymunk", "sklearn", "scipy", "matplotlib", "hadim_cli.learner
 seconds, SQLAlchemy half of one (a sound store file is read with sqlite3, hadim_store.reader)."""
 
 
+def _imports(store: Path, commands: list[list[str]], held: str | None = None
+             ) -> tuple[list[str], str]:
+    """Each command run in turn by one process, against `store` with run `held` locked by
+    a live process: per command, its exit status and which of HEAVY it had imported by its
+    end (a line `loaded: CODE [...]`); and all that was said on stderr."""
+    script = (
+        "import json, sys\n"
+        "from hadim_cli.app import main\n"
+        "for args in json.loads(sys.argv[1]):\n"
+        "    try:\n"
+        f"        main(args + ['--store', {str(store)!r}])\n"
+        "    except SystemExit as exit:\n"
+        "        code = exit.code\n"
+        f"    print('loaded:', code, [m for m in {HEAVY!r} if m in sys.modules])\n")
+    owner = f"{os.uname().nodename}:{os.getpid()}"
+    if held is not None:
+        with Store.open(store, create=False) as st:
+            st.acquire_lock(held, owner)  # held by this live process
+    try:
+        out = subprocess.run([sys.executable, "-c", script, json.dumps(commands)],
+                             capture_output=True, text=True, check=True)
+    finally:
+        if held is not None:
+            with Store.open(store, create=False) as st:
+                st.release_lock(held, owner)
+    return [line for line in out.stdout.splitlines() if line.startswith("loaded:")], \
+        out.stdout + out.stderr
+
+
 def test_refusals_and_h_need_no_learner(store, tmp_path):
     """What does not need the learner never imports it, nor SQLAlchemy: H's table, the runs, and
     the refusals of an unknown run, a finished run, a run in use, a target outside the room,
@@ -121,30 +150,107 @@ def test_refusals_and_h_need_no_learner(store, tmp_path):
                 ["resume", "run-1"], ["resume", "rnu-1"], ["resume", "held", "-n", "200"],
                 ["eval", "run-1", "--points", str(bad)], ["eval", "run-1", "--points", str(broken)],
                 ["eval", "rnu-1", "--points", str(bad)]]
-    script = (
-        "import json, sys\n"
-        "from hadim_cli.app import main\n"
-        "for args in json.loads(sys.argv[1]):\n"
-        "    try:\n"
-        f"        main(args + ['--store', {str(store)!r}])\n"
-        "    except SystemExit as exit:\n"
-        "        code = exit.code\n"
-        f"    print('loaded:', code, [m for m in {HEAVY!r} if m in sys.modules])\n")
-    owner = f"{os.uname().nodename}:{os.getpid()}"
-    with Store.open(store, create=False) as st:
-        st.acquire_lock("held", owner)  # held by this live process
-    try:
-        out = subprocess.run([sys.executable, "-c", script, json.dumps(commands)],
-                             capture_output=True, text=True, check=True)
-    finally:
-        with Store.open(store, create=False) as st:
-            st.release_lock("held", owner)
-    loaded = [line for line in out.stdout.splitlines() if line.startswith("loaded:")]
-    assert loaded == [f"loaded: {0 if i < 4 else 2} []" for i in range(len(commands))], \
-        out.stdout + out.stderr
-    for said in ("is outside the", "is finished at", "is in use", "not valid TOML",
-                 "did you mean run-1"):
-        assert said in out.stderr, out.stderr
+    loaded, said = _imports(store, commands, "held")
+    assert loaded == [f"loaded: {0 if i < 4 else 2} []" for i in range(len(commands))], said
+    for words in ("is outside the", "is finished at", "is in use", "not valid TOML",
+                  "did you mean run-1"):
+        assert words in said, said
+
+
+def test_reading_a_run_needs_no_sqlalchemy(store, tmp_path):
+    """`runs show`, the timeline, `plot` and the refusals of `bench eval` read a sound store
+    file with sqlite3 alone: none imports SQLAlchemy or the learner (the figures are drawn
+    with matplotlib, last here)."""
+    commands = [["runs", "show", "run-1"], ["runs", "show", "--json"],
+                ["affordances", "run-1", "--timeline"],
+                ["affordances", "run-1", "--timeline", "--at", "50", "--json"],
+                ["bench", "eval", "run-1", "--at", "1000"],
+                ["affordances", "--timeline", "--out", str(tmp_path / "t.png")],
+                ["plot", "run-1", "--out", str(tmp_path / "c.png")]]
+    loaded, said = _imports(store, commands)
+    assert loaded == ["loaded: 0 []"] * 4 + ["loaded: 2 []"] + \
+        ["loaded: 0 ['matplotlib']"] * 2, said
+
+
+@pytest.mark.parametrize("args", [
+    ("runs", "show", "run-1"), ("runs", "show", "run-1", "--json"), ("runs", "list", "--json"),
+    ("affordances", "run-1", "--timeline"), ("affordances", "run-1", "--timeline", "--json"),
+    ("affordances", "run-1", "--json"), ("affordances", "run-1", "--timeline", "--out", "{png}"),
+    ("plot", "run-1", "--out", "{png}")])
+def test_the_light_reader_and_the_store_answer_alike(store, tmp_path, monkeypatch, args):
+    """What a read command prints (and draws) is the same whether the file was read with
+    sqlite3 alone or through the full store (as an older schema or a server is)."""
+    from typer.testing import CliRunner
+
+    from hadim_cli import runs
+    from hadim_cli.app import app
+
+    answers = []
+    for light in (True, False):
+        png = tmp_path / f"{light}.png"
+        if not light:
+            monkeypatch.setattr(runs, "light_reader", lambda option: None)
+        result = CliRunner().invoke(app, [a.format(png=png) for a in args] +
+                                    ["--store", str(store)])
+        assert result.exit_code == 0, (result.stderr, result.exception)
+        answers.append((result.stdout.replace(str(png), "PNG"),
+                        png.read_bytes() if png.exists() else None))
+    assert answers[0] == answers[1], args
+
+
+def test_a_baseline_runs_refusals_need_no_agent(store, tmp_path):
+    """A baseline run's refusals are read with sqlite3 alone, before its agent (torch,
+    stable-baselines3) or the world's physics is imported: resume of a finished run, of a
+    total or period its steps do not divide, of a run in use; eval on a task of another
+    kind, a target outside the room or a learner's diagnostic; fork; diagnose of a learner's
+    run or an unknown one."""
+    outside = tmp_path / "outside.toml"
+    text = (ROOT / "configs" / "tasks" / "move-robot.toml").read_text()
+    outside.write_text(re.sub(r"points = \[.*?\]\]", "points = [[1.0, 9.0]]", text, flags=re.S))
+    both = tmp_path / "both.sqlite"
+    shutil.copy(store, both)
+    ok("baseline", "train", "--algo", "q-learning", "--task", "move-robot", "-n", 40,
+       "--eval-every", 0, "--name", "base", "--store", both)
+    commands = [["resume", "base"], ["resume", "base", "-n", "20"], ["resume", "base", "-n", "50"],
+                ["resume", "base", "-n", "80", "--eval-every", "30"],
+                ["resume", "base", "-n", "80"], ["eval", "base", "--task", "push-object"],
+                ["eval", "base", "--task", "reach-pose"],
+                ["eval", "base", "--points", str(outside)],
+                ["eval", "base", "--task", "move-robot", "--animate", str(tmp_path / "a.gif")],
+                ["fork", "base"], ["baseline", "diagnose", "run-1"],
+                ["baseline", "diagnose", "bsae"]]
+    loaded, said = _imports(both, commands, "base")
+    assert loaded == ["loaded: 2 []"] * len(commands), said
+    for words in ("is finished at 40", "already has 40", "of 20 for this baseline run, got 50",
+                  "--eval-every must be a multiple of 20", "is in use", "this run learned",
+                  "asks for headings", "point (1, 9) is outside", "--animate and --exact",
+                  "fork is for the learner", "run-1 is a learner run", "did you mean base"):
+        assert words in said, (words, said)
+
+
+def test_a_new_runs_refusals_need_no_learner_nor_agent(store, tmp_path):
+    """`train`, `fork` and `baseline train` refuse, before importing the learner, an agent or
+    SQLAlchemy: a name taken or malformed, a directory for a store, an unknown config key,
+    an evaluation period episodes do not divide, an algorithm, task or combination the
+    comparison lacks, a total or period a baseline's steps do not divide."""
+    q = ["baseline", "train", "--algo", "q-learning", "--task", "move-robot"]
+    commands = [["train", "--name", "run-1"], ["train", "--name", "a b"],
+                ["train", "--set", "nope.x=1"], ["train", "--eval-every", "30"],
+                ["fork", "run-1", "--name", "run-1"], [*q, "--name", "run-1"],
+                ["baseline", "train", "--algo", "nope", "--task", "move-robot"],
+                ["baseline", "train", "--algo", "q-learning", "--task", "nope"],
+                [*q, "--actions", "continuous"], [*q, "-n", "1010"],
+                ["baseline", "train", "--algo", "dqn", "--task", "move-robot", "--eval-every",
+                 "30"]]
+    loaded, said = _imports(store, commands)
+    assert loaded == ["loaded: 2 []"] * len(commands), said
+    for words in ("'run-1' already exists", "invalid run name 'a b'", "unknown config key",
+                  "multiple of the episode length", "unknown algorithm 'nope'",
+                  "unknown task 'nope'", "needs --actions discrete", "got 1010",
+                  "--eval-every must be a multiple of 20"):
+        assert words in said, (words, said)
+    loaded, said = _imports(tmp_path, [["train"], q])
+    assert loaded == ["loaded: 2 []"] * 2 and said.count("is a directory") == 2, said
 
 
 # --------------------------------------------------------------------------- 3. 80 columns

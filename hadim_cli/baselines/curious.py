@@ -38,9 +38,9 @@ import gymnasium as gym
 import numpy as np
 from gymnasium import spaces
 
-from hadim_cli.baselines.env import HALF_ROOM, GoalWorldEnv
+from hadim_cli.baselines.env import GoalWorldEnv
 from hadim_cli.baselines.rewards import GOAL_REWARD, STEP_PENALTY
-from hadim_cli.baselines.tasks import GOAL_BOX, GOAL_RADIUS, GOAL_RING
+from hadim_cli.baselines.tasks import GOAL_BOX, GOAL_RADIUS, GOAL_RING, HALF_ROOM
 
 WINDOW = 300
 UNIFORM_SHARE = 0.4

@@ -105,7 +105,7 @@ def value_scale(session, contexts: np.ndarray, returns: np.ndarray, rng: np.rand
                 n: int = 2000) -> ValueScale | None:
     """Q(s, ·) of the run's agent on up to `n` stored states (None for A2C), beside the
     returns `returns` (per stored state) the agent got from them."""
-    from hadim_cli.baselines.agents import Algorithm
+    from hadim_cli.baselines.config import Algorithm
 
     algo = Algorithm(session.cfg.algorithm)
     if algo is Algorithm.A2C:

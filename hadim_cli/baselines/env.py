@@ -16,14 +16,14 @@ bit-identically by replaying the actions in a fresh world.
 from __future__ import annotations
 
 import dataclasses
-import enum
 from collections.abc import Callable, Mapping, Sequence
-from typing import Any, TypeVar
+from typing import Any
 
 import gymnasium as gym
 import numpy as np
 from gymnasium import spaces
 
+from hadim_cli.baselines.config import Actions, choice
 from hadim_cli.baselines.rewards import (
     GOAL_REWARD,
     Reward,
@@ -31,7 +31,14 @@ from hadim_cli.baselines.rewards import (
     reward_1,
     sparse_reward,
 )
-from hadim_cli.baselines.tasks import GOAL_RADIUS, RLTask, draw_goal, draw_start, rl_task
+from hadim_cli.baselines.tasks import (
+    GOAL_RADIUS,
+    HALF_ROOM,
+    RLTask,
+    draw_goal,
+    draw_start,
+    rl_task,
+)
 from hadim_cli.config import WorldConfig
 from hadim_cli.errors import HadimError
 from hadim_cli.world.layout import ROBOT, Property
@@ -39,30 +46,12 @@ from hadim_cli.world.scene import ObjectSpec, Scene
 from hadim_cli.world.world import World
 
 MAX_STEPS = 1000
-HALF_ROOM = 2.0
-
-
-class Actions(enum.StrEnum):
-    DISCRETE = "discrete"
-    """The paper's 4 actions: forward, backward, turn left, turn right."""
-    CONTINUOUS = "continuous"
-    """The wheel command (left, right) ∈ [-1, 1]², as the learner's primitive action."""
 
 
 DISCRETE_WHEELS = np.array([[1.0, 1.0], [-1.0, -1.0], [-1.0, 1.0], [1.0, -1.0]])
 """Wheel intensities of the discrete actions 0 forward, 1 backward, 2 turn left, 3 right."""
 
-E = TypeVar("E", bound=enum.StrEnum)
 Recorder = Callable[[np.ndarray, np.ndarray, np.ndarray, float, bool, bool], None]
-
-
-def choice(kind: type[E], value: str, what: str) -> E:
-    """`value` as a member of `kind`, or a `HadimError` listing the allowed values."""
-    try:
-        return kind(value)
-    except ValueError:
-        allowed = ", ".join(m.value for m in kind)
-        raise HadimError(f"unknown {what} '{value}' (known: {allowed})") from None
 
 
 def world_config(base: WorldConfig, task: RLTask) -> WorldConfig:

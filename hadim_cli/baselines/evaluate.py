@@ -12,10 +12,10 @@ from __future__ import annotations
 
 import numpy as np
 
-from hadim_cli.baselines.agents import Algorithm, BaselineConfig, environment
+from hadim_cli.baselines.agents import environment
+from hadim_cli.baselines.config import Algorithm, BaselineConfig, check_fits
 from hadim_cli.baselines.curious import ModularGoalEnv
 from hadim_cli.baselines.tasks import eval_scene
-from hadim_cli.errors import HadimError
 from hadim_cli.evaluation.metric import point_error, task_score
 from hadim_cli.evaluation.runner import PointResult, TaskResult, segment_distance
 from hadim_cli.evaluation.tasks import Task
@@ -23,20 +23,6 @@ from hadim_cli.evaluation.tasks import Task
 STUCK = 20
 """Actions after which a policy whose observation has not changed at all (pressing against a
 wall) is taken to stay so: its point ends there, counted as using the whole budget."""
-
-
-def check_fits(cfg: BaselineConfig, task: Task) -> None:
-    """A baseline drives the entity it trained for: refuse a task of another kind."""
-    trained = environment(cfg).task
-    if task.headings is not None:
-        raise HadimError(f"task {task.name} asks for headings: the baselines learn positions "
-                         "only")
-    wants_objects = 0 if task.entity == "robot" else (2 if task.tool else 1)
-    if wants_objects != len(trained.objects):
-        raise HadimError(f"this run learned {cfg.task}; task {task.name} drives "
-                         f"{'the robot' if task.entity == 'robot' else 'an object'}"
-                         f"{' through a tool' if task.tool else ''}: evaluate it on "
-                         f"--task {cfg.task} (or a points file of that kind)")
 
 
 def evaluate_policy(agent, cfg: BaselineConfig, task: Task) -> TaskResult:

@@ -19,7 +19,7 @@ from contextlib import contextmanager
 from dataclasses import dataclass
 
 from hadim_cli.baselines import runs as baseline_runs
-from hadim_cli.baselines.agents import Algorithm, make_config
+from hadim_cli.baselines.config import Algorithm, make_config
 from hadim_cli.baselines.variants import Variant, apply_variant
 from hadim_cli.config import WorldConfig
 from hadim_cli.evaluation.metric import EPISODE_ACTIONS, measure_name, zone_share

@@ -17,7 +17,7 @@ from typing import Any
 
 import numpy as np
 
-from hadim_cli.baselines.env import HALF_ROOM
+from hadim_cli.baselines.tasks import HALF_ROOM
 
 
 @dataclass(frozen=True)

@@ -18,12 +18,8 @@ from typing import Any
 
 import numpy as np
 
-from hadim_cli.baselines.agents import (
-    CHUNK_MULTIPLE,
-    BaselineConfig,
-    make_agent,
-    read_config,
-)
+from hadim_cli.baselines.agents import make_agent
+from hadim_cli.baselines.config import BaselineConfig, check_total, read_config
 from hadim_cli.baselines.evaluate import evaluate_policy
 from hadim_cli.errors import HadimError
 from hadim_cli.evaluation.metric import measure_name
@@ -133,12 +129,6 @@ def restore(store: Store, run: RunRecord, at: int | None = None) -> BaselineSess
 
 def evaluate_tasks(session: BaselineSession, tasks: tuple[str, ...]) -> dict[str, TaskResult]:
     return {name: session.evaluate(load_task(name)) for name in tasks}
-
-
-def check_total(total: int, multiple: int = CHUNK_MULTIPLE) -> None:
-    if total % multiple:
-        raise HadimError(f"--iterations must be a multiple of {multiple} for this baseline "
-                         f"run, got {total}")
 
 
 def next_evaluation(it: int, eval_every: int, eval_at: Sequence[int]) -> int | None:

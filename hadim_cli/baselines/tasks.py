@@ -38,6 +38,9 @@ CLEARANCE = 0.05
 """Gap kept between drawn bodies (m)."""
 
 TASKS = ("move-robot", "push-object", "push-with-tool")
+HALF_ROOM = 2.0
+"""Half the side of the room the baselines train in (m): observations and goals lie in
+[-HALF_ROOM, HALF_ROOM]²."""
 
 
 @dataclass(frozen=True)

@@ -18,7 +18,7 @@ from __future__ import annotations
 import dataclasses
 import enum
 
-from hadim_cli.baselines.agents import HER_PARAMS, Algorithm, BaselineConfig
+from hadim_cli.baselines.config import HER_PARAMS, Algorithm, BaselineConfig
 from hadim_cli.baselines.rewards import Reward
 
 REWARD_SCALE = 0.001

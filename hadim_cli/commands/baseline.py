@@ -50,28 +50,31 @@ def train(
 ) -> None:
     """Train a baseline on one task and store it as a run; prints the run's name."""
     from hadim_cli import runs
-    from hadim_cli.baselines import runs as baseline_runs
-    from hadim_cli.baselines.agents import make_config
+    from hadim_cli.baselines.config import check_total, make_config
     from hadim_cli.config import WorldConfig
 
     cfg = make_config(algo, task, reward, actions, horizon or iterations, eval_every,
                       WorldConfig(), episode_length, checkpoint_every, n_envs)
-    baseline_runs.check_total(iterations, cfg.multiple)
-    _threads()
+    check_total(iterations, cfg.multiple)
+    runs.refuse_new_run(store, name)
+    from hadim_cli.baselines import runs as baseline_runs  # torch: after every refusal
+
     with runs.open_store(store) as st:
         record = baseline_runs.new_run(st, cfg, seed, name)
         typer.echo(record.name)
+        _threads()
         session = baseline_runs.BaselineSession(cfg, seed)
         driver.drive(st, record.name, session, iterations, eval_every, store,
                      baseline_runs.train, (cfg.task,))
 
 
-def resume_baseline(st, record, iterations: int | None, eval_every: int | None,
-                    store_option: str | None) -> None:
-    """`hadim resume` on a baseline run: every refusal before the agent is restored."""
+def baseline_plan(st, record, iterations: int | None, eval_every: int | None,
+                  store_option: str | None) -> tuple[int, int]:
+    """The total and evaluation period a baseline run is resumed with, after every refusal
+    that needs no agent: a total or `--eval-every` its agent's steps do not divide, the run
+    already there, a run another live process drives."""
     from hadim_cli import runs
-    from hadim_cli.baselines import runs as baseline_runs
-    from hadim_cli.baselines.agents import read_config
+    from hadim_cli.baselines.config import check_total, read_config
     from hadim_store.records import RunStatus
 
     cfg = read_config(record.config)
@@ -79,17 +82,27 @@ def resume_baseline(st, record, iterations: int | None, eval_every: int | None,
     default = record.iterations if finished else max(cfg.horizon, record.iterations)
     total = iterations or runs.target_iterations(st, record, default)
     multiple = cfg.multiple
-    baseline_runs.check_total(total, multiple)
+    check_total(total, multiple)
     every = cfg.eval_every if eval_every is None else eval_every
     if every % multiple:
         raise HadimError(f"--eval-every must be a multiple of {multiple}, got {every}")
     driver.refuse_reached(record.name, record.iterations, total, iterations is not None,
                           store_option)
     st.refuse_if_locked(record.name)
+    return total, every
+
+
+def resume_baseline(st, record, iterations: int | None, eval_every: int | None,
+                    store_option: str | None) -> None:
+    """`hadim resume` on a baseline run: every refusal before the agent is restored."""
+    from hadim_cli.baselines import runs as baseline_runs
+    from hadim_cli.baselines.config import read_config
+
+    total, every = baseline_plan(st, record, iterations, eval_every, store_option)
     _threads()
     session = baseline_runs.restore(st, record)
     driver.drive(st, record.name, session, total, every, store_option,
-                 baseline_runs.train, (cfg.task,))
+                 baseline_runs.train, (read_config(record.config).task,))
 
 
 @app.command("diagnose")
@@ -107,10 +120,10 @@ def diagnose(
     from hadim_cli import runs
     from hadim_cli.baselines.diagnose import diagnose as measure
 
-    _threads()
-    with runs.open_store(store, create=False, writes=False) as st:
-        if st.get_run(run).config.get("kind") != "baseline":
+    with runs.open_reader(store, run=run) as st:  # sqlite3 alone when the file is sound
+        if runs.run_kind(st.get_run(run)) is not runs.RunKind.BASELINE:
             raise HadimError(f"run {run} is a learner run: diagnose is for baseline runs")
+        _threads()
         found = measure(st, run, block)
     if as_json:
         typer.echo(json.dumps(found, indent=1))

@@ -112,13 +112,12 @@ def eval_(
 ) -> None:
     """Wall and CPU time of evaluating a run's learner on each task (nothing stored)."""
     from hadim_cli import runs
-    from hadim_cli.bench_eval import bench_eval
     from hadim_cli.errors import HadimError
     from hadim_cli.evaluation.tasks import load_task
 
     for name in task or ():
         load_task(name)  # an unknown task is refused before the learner is restored
-    with runs.open_store(store, create=False, writes=False) as st:
+    with runs.open_reader(store, run=run) as st:  # sqlite3 alone when the file is sound
         record = st.get_run(run)
         if record.config.get("kind") == "baseline":
             raise HadimError(f"run {run} is a baseline run: bench eval times the learner's "
@@ -126,6 +125,8 @@ def eval_(
         if at is not None and at > record.iterations:
             raise HadimError(f"--at {at} is beyond run {run}'s {record.iterations} iterations")
         session = runs.restore_session(st, record, at)
+    from hadim_cli.bench_eval import bench_eval  # the learner's session: after the refusals
+
     tasks = tuple(task) if task else session.config.evaluation.tasks
     result = bench_eval(session, run, tasks)
     if json_:
@@ -196,12 +197,12 @@ def baseline(
     import torch
 
     from hadim_cli.baselines import runs as baseline_runs
-    from hadim_cli.baselines.agents import make_config
+    from hadim_cli.baselines.config import check_total, make_config
     from hadim_cli.config import WorldConfig
 
     torch.set_num_threads(1)
     cfg = make_config(algo, task, reward, actions, iterations, 0, WorldConfig(), n_envs=n_envs)
-    baseline_runs.check_total(iterations, cfg.multiple)
+    check_total(iterations, cfg.multiple)
     session = baseline_runs.BaselineSession(cfg, seed)
     start, cpu = time.perf_counter(), time.process_time()
     baseline_runs.train(None, None, session, iterations)

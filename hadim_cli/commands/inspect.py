@@ -99,7 +99,7 @@ def runs_show(run: RunArg = None, store: StoreOption = None, as_json: JsonOption
 
     from hadim_cli import runs
 
-    with runs.open_store(store, create=False, writes=False, run=run) as st:
+    with runs.open_reader(store, run=run) as st:  # sqlite3 alone when the file is sound
         r = runs.chosen_run(st, run)
         run = r.name
         # |H| from the last episode's per-affordance stats: decoding the checkpoint's arrays
@@ -188,7 +188,7 @@ def affordances(
         raise HadimError("--errors shows the models of H at one iteration: not with --pa, "
                          "--timeline or --out")
     if timeline or out is not None:
-        with runs.open_store(store, create=False, writes=False, run=run) as st:
+        with runs.open_reader(store, run=run) as st:
             record = _learner_run(st, run, at, "affordances")
             _show_timeline(st.events(record.name, upto_iteration=at), record, at, out, as_json)
         return
@@ -331,9 +331,10 @@ def eval_cmd(
 
 def _eval_refusals(st, run: str | None, at: int | None, chosen, diagnostic: bool):
     """The run `eval` evaluates, after every refusal that needs neither the learner nor the
-    agent: `--at` beyond it, a learner's diagnostic on a baseline run, a target the learner's
-    world cannot reach (a baseline's task is checked once its agent's config is read)."""
+    agent: `--at` beyond it, a learner's diagnostic on a baseline run, a task the run's
+    world or policy cannot attempt."""
     from hadim_cli import runs
+    from hadim_cli.baselines.config import check_fits, read_config
     from hadim_cli.config import stored_config
     from hadim_cli.evaluation.tasks import check_task
 
@@ -343,9 +344,11 @@ def _eval_refusals(st, run: str | None, at: int | None, chosen, diagnostic: bool
                          "iterations")
     if runs.run_kind(record) is runs.RunKind.LEARNER:
         check_task(chosen, stored_config(record.config).world)
-    elif diagnostic:
+        return record
+    if diagnostic:
         raise HadimError("--animate and --exact are diagnostics of the learner's "
                          f"controller; run {record.name} is a baseline run")
+    check_fits(read_config(record.config), chosen)
     return record
 
 
@@ -365,10 +368,10 @@ def _with_budget(task, budget: int | None):
 
 
 def _eval_baseline(st, record, chosen, at: int | None):
+    """A baseline's greedy policy on `chosen` (a task of another kind was refused by
+    `_eval_refusals`)."""
     from hadim_cli.baselines import runs as baseline_runs
-    from hadim_cli.baselines.evaluate import check_fits
 
-    check_fits(baseline_runs.read_config(record.config), chosen)
     session = baseline_runs.restore(st, record, at)
     result = session.evaluate(chosen)
     st.add_evaluation(record.name, session.iteration, chosen.name, result.score,
@@ -410,8 +413,7 @@ def plot(
     from hadim_cli.plots import comparison_figure, competence_figure
 
     groups: dict[str, list] = {}
-    with runs.open_store(store, create=False, writes=False,
-                         run=run[0] if run and len(run) == 1 else None) as st:
+    with runs.open_reader(store, run=run[0] if run and len(run) == 1 else None) as st:
         run = run or [runs.chosen_run(st, None).name]
         for name in dict.fromkeys(run):
             record = runs.chosen_run(st, name)

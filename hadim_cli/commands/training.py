@@ -10,7 +10,7 @@ from typing import Annotated
 import typer
 
 from hadim_cli.commands import driver
-from hadim_cli.commands.baseline import resume_baseline
+from hadim_cli.commands.baseline import baseline_plan, resume_baseline
 from hadim_cli.commands.common import ConfigOption, SetOption, StoreOption
 from hadim_cli.errors import HadimError
 
@@ -44,10 +44,12 @@ def train(
     Ctrl-C pauses it (exit status 130) and prints the command that continues it."""
     from hadim_cli import runs
     from hadim_cli.config import load_config
-    from hadim_cli.session import Session
 
     resolved = load_config(config, set_ or [])
     every = _eval_every(eval_every, resolved)
+    runs.refuse_new_run(store, name)
+    from hadim_cli.session import Session  # the learner and torch: after every refusal
+
     session = Session(resolved, seed)  # a world it cannot build is refused before the store
     with runs.open_store(store) as st:
         record = runs.new_run(st, resolved, seed, name)
@@ -70,11 +72,11 @@ def resume(
     from hadim_cli import runs
 
     reader = runs.light_reader(store)
-    if reader is not None:  # a learner's refusals, read with sqlite3 alone (no SQLAlchemy)
+    if reader is not None:  # the refusals, read with sqlite3 alone (no SQLAlchemy, no agent)
         with reader:
             record = reader.get_run(run)
-            if runs.run_kind(record) is runs.RunKind.LEARNER:
-                _learner_plan(reader, record, iterations, eval_every, store)
+            plans = {runs.RunKind.LEARNER: _learner_plan, runs.RunKind.BASELINE: baseline_plan}
+            plans[runs.run_kind(record)](reader, record, iterations, eval_every, store)
     resumers = {runs.RunKind.LEARNER: _resume_learner, runs.RunKind.BASELINE: resume_baseline}
     with runs.open_store(store, create=False, run=run) as st:
         record = st.get_run(run)
@@ -126,13 +128,15 @@ def fork(
 ) -> None:
     """A new run whose history up to a checkpoint is the parent's; the parent is untouched."""
     from hadim_cli import runs
-    from hadim_cli.config import stored_config, with_overrides
 
+    reader = runs.light_reader(store)
+    if reader is not None:  # the refusals that need no learner, read with sqlite3 alone
+        with reader:
+            _fork_config(reader.get_run(run), set_)
+    runs.refuse_new_run(store, name)
     with runs.open_store(store, create=False, run=run) as st:
         parent = st.get_run(run)
-        if runs.run_kind(parent) is runs.RunKind.BASELINE:
-            raise HadimError(f"run {run} is a baseline run: fork is for the learner's runs")
-        config = with_overrides(stored_config(parent.config), set_ or [])
+        config = _fork_config(parent, set_)
         if (note := runs.version_note(parent)) is not None:
             typer.echo(note, err=True)
         if set_:  # refuse, before writing anything, a config that cannot continue this history
@@ -141,3 +145,14 @@ def fork(
                         seed=parent.seed if seed is None else seed, name=name,
                         versions=runs.package_versions())
         typer.echo(child.name)
+
+
+def _fork_config(parent, set_: list[str] | None):
+    """The config a fork of `parent` runs with; a baseline run, or a `--set` key the config
+    lacks, refused."""
+    from hadim_cli import runs
+    from hadim_cli.config import stored_config, with_overrides
+
+    if runs.run_kind(parent) is runs.RunKind.BASELINE:
+        raise HadimError(f"run {parent.name} is a baseline run: fork is for the learner's runs")
+    return with_overrides(stored_config(parent.config), set_ or [])

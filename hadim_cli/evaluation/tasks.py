@@ -75,22 +75,39 @@ def check_task(task: Task, world: WorldConfig) -> None:
         raise HadimError(f"task {task.name} has {len(task.scene.objects)} objects in its scene; "
                          f"this run's world has {n_objects} (list them all, or write "
                          f"scene = \"push-object\" to use a built-in task's scene)")
-    radius = world.robot_radius
-    if task.entity == "target":
-        index = _object_index(task.target, n_objects, task)
-        radius = task.scene.objects[index].radius
-        _object_index(task.tool, n_objects, task)
-    hw, hh = world.room_width / 2, world.room_height / 2
+    radius = _driven_radius(task, world, n_objects)
     for x, y in task.points:
-        if abs(x) + radius > hw or abs(y) + radius > hh:
-            raise HadimError(f"task {task.name}: target point ({x:g}, {y:g}) is outside the "
-                             f"{2 * hw:g} x {2 * hh:g} m room for a {task.entity} of radius "
-                             f"{radius:g} (points must lie within ±{hw - radius:g}, "
-                             f"±{hh - radius:g})")
+        _check_walls(task, x, y, radius, world)
         for i, obj in enumerate(task.scene.objects):
             if not obj.pushable and math.hypot(x - obj.x, y - obj.y) < radius + obj.radius:
                 raise HadimError(f"task {task.name}: target point ({x:g}, {y:g}) is inside "
                                  f"the fixed object obj{i + 1} at ({obj.x:g}, {obj.y:g})")
+
+
+def check_inside(task: Task, world: WorldConfig) -> None:
+    """Refuse a target point outside `world`'s walls for the entity the task drives (a world
+    holding only the task's own objects, as a baseline's does)."""
+    radius = _driven_radius(task, world, len(task.scene.objects))
+    for x, y in task.points:
+        _check_walls(task, x, y, radius, world)
+
+
+def _driven_radius(task: Task, world: WorldConfig, n_objects: int) -> float:
+    """The radius of the entity the task drives (its target and tool named in the scene)."""
+    if task.entity != "target":
+        return world.robot_radius
+    index = _object_index(task.target, n_objects, task)
+    _object_index(task.tool, n_objects, task)
+    return task.scene.objects[index].radius
+
+
+def _check_walls(task: Task, x: float, y: float, radius: float, world: WorldConfig) -> None:
+    hw, hh = world.room_width / 2, world.room_height / 2
+    if abs(x) + radius > hw or abs(y) + radius > hh:
+        raise HadimError(f"task {task.name}: target point ({x:g}, {y:g}) is outside the "
+                         f"{2 * hw:g} x {2 * hh:g} m room for a {task.entity} of radius "
+                         f"{radius:g} (points must lie within ±{hw - radius:g}, "
+                         f"±{hh - radius:g})")
 
 
 def _object_index(name: str | None, n_objects: int, task: Task) -> int:

@@ -175,14 +175,19 @@ BASELINE_EVAL_EVERY = 1000
 def _baseline_entries(name: str, axes: BaselineGrid, seed_list: list[int], iterations: int,
                       eval_every: int | None) -> tuple[list[SweepEntry], tuple[str, ...]]:
     """One entry per combination an algorithm takes and seed; the others, named."""
-    from hadim_cli.baselines import runs as baseline_runs
-    from hadim_cli.baselines.agents import Algorithm, make_config, refusal
-    from hadim_cli.baselines.env import Actions, choice
+    from hadim_cli.baselines.config import (
+        Actions,
+        Algorithm,
+        check_total,
+        choice,
+        make_config,
+        refusal,
+    )
     from hadim_cli.baselines.rewards import Reward
     from hadim_cli.baselines.tasks import TASKS
     from hadim_cli.config import WorldConfig
 
-    baseline_runs.check_total(iterations)
+    check_total(iterations)
     for task in axes.tasks:
         if task not in TASKS:
             raise HadimError(f"unknown task '{task}' (known: {', '.join(TASKS)})")

@@ -75,10 +75,11 @@ def _train(store_url: str, entry: SweepEntry, should_stop: Callable[[], bool]) -
 def _baseline(store_url: str, entry: SweepEntry,
               should_stop: Callable[[], bool]) -> EntryResult:
     from hadim_cli.baselines import runs as baseline_runs
+    from hadim_cli.baselines.config import read_config
     from hadim_cli.heartbeat import keep_alive
     from hadim_store.records import RunStatus
 
-    cfg = baseline_runs.read_config(entry.config)
+    cfg = read_config(entry.config)
     if cfg.algorithm != "q-learning":  # ours, numpy only: no torch to load
         import torch
 

@@ -96,7 +96,8 @@ def test_learning_in_chunks_writes_nothing_to_the_temporary_directory(
     runs). The agents log nowhere (torch may keep its own caches there)."""
     import tempfile
 
-    from hadim_cli.baselines.agents import BaselineConfig, make_agent
+    from hadim_cli.baselines.agents import make_agent
+    from hadim_cli.baselines.config import BaselineConfig
 
     monkeypatch.delenv("SB3_LOGDIR", raising=False)
     monkeypatch.setattr(tempfile, "tempdir", str(tmp_path))

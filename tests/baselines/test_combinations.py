@@ -9,8 +9,8 @@ import numpy as np
 import pytest
 
 from hadim_cli.baselines import runs as baseline_runs
-from hadim_cli.baselines.agents import Algorithm, make_config, refusal
-from hadim_cli.baselines.env import DISCRETE_WHEELS, Actions
+from hadim_cli.baselines.config import Actions, Algorithm, make_config, refusal
+from hadim_cli.baselines.env import DISCRETE_WHEELS
 from hadim_cli.baselines.rewards import GOAL_REWARD, STEP_PENALTY, Reward
 from hadim_cli.baselines.tasks import TASKS
 from hadim_cli.config import WorldConfig
@@ -69,7 +69,7 @@ def test_every_combination_learns_stores_resumes_and_evaluates(tmp_path, index, 
 def test_a_baseline_stored_before_a_world_key_existed_keeps_the_world_it_trained_in():
     """A stored baseline's world lacks the keys added after it (e.g. `settle_time`): it reads
     them as they were then (`LEGACY_DEFAULTS`), not at today's defaults."""
-    from hadim_cli.baselines.agents import read_config
+    from hadim_cli.baselines.config import read_config
 
     cfg = make_config("dqn", "push-object", "sparse", "discrete", 100, 0, WorldConfig())
     assert cfg.world_config == WorldConfig()

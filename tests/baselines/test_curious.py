@@ -14,7 +14,8 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from hadim_cli.baselines.agents import make_agent, make_config
+from hadim_cli.baselines.agents import make_agent
+from hadim_cli.baselines.config import make_config
 from hadim_cli.baselines.curious import ModularGoalEnv, encode_goals, entity_positions
 from hadim_cli.baselines.env import GoalWorldEnv
 from hadim_cli.baselines.rewards import GOAL_REWARD, STEP_PENALTY

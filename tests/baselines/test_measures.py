@@ -15,7 +15,7 @@ from typer.testing import CliRunner
 from hadim_cli.app import app
 from hadim_cli.baselines import grid
 from hadim_cli.baselines import runs as baseline_runs
-from hadim_cli.baselines.agents import make_config
+from hadim_cli.baselines.config import make_config
 from hadim_cli.baselines.diagnose import training_blocks
 from hadim_cli.baselines.features import goal_frame
 from hadim_cli.baselines.qlearning import robot_frame_cells

@@ -13,7 +13,7 @@ from typer.testing import CliRunner
 
 from hadim_cli.app import app
 from hadim_cli.baselines import runs as baseline_runs
-from hadim_cli.baselines.agents import make_config
+from hadim_cli.baselines.config import make_config
 from hadim_cli.config import WorldConfig
 from hadim_store.api import Store
 

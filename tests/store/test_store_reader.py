@@ -14,7 +14,15 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from hadim_store import EpisodeWrite, RunLocked, Store, StoreError, UnknownRun
+from hadim_store import (
+    AffordanceEvent,
+    AffordanceStat,
+    EpisodeWrite,
+    RunLocked,
+    Store,
+    StoreError,
+    UnknownRun,
+)
 from hadim_store.locking import this_host
 from hadim_store.reader import StoreReader
 
@@ -26,9 +34,15 @@ def _episode(index: int, n: int = 5) -> EpisodeWrite:
     weights replaced; so the store writes prefix deltas, whole values and snapshots."""
     rng = np.random.default_rng(index)
     end = (index + 1) * n
+    events = [AffordanceEvent(end - 1 - k, k, "created" if k else "context_replaced", "action",
+                              f"space-{k}", ("a", f"b{k}"), None if k else 0.25,
+                              {"added": [k], "why": "ü"}) for k in range(index % 3)]
+    stats = [AffordanceStat(end, k, 0.5 / (k + 1), index + k, None if k == 2 else 1.5)
+             for k in range(3, -1, -1)]
     return EpisodeWrite(
         index=index, first_iteration=index * n, actions=rng.uniform(size=(n, 2)),
         contexts=rng.uniform(size=(n, 3)), outcomes=rng.uniform(size=(n, 3)),
+        events=events, stats=stats,
         extra={"hierarchy": [{"id": i} for i in range(index)], "target": 100},
         checkpoint_arrays={"rows": np.arange(2 * end, dtype=np.float32).reshape(end, 2),
                            "weights": rng.normal(size=(3, 3)), "count": np.array(end)},
@@ -44,6 +58,8 @@ def path(tmp_path) -> Path:
         st.create_run(config={"a": 1}, seed=3, versions={"hadim": "x"})
         for index in range(10):
             st.write_episode("run-1", _episode(index))
+            for task in ("push", "move")[: index % 3]:  # tasks out of order within an iteration
+                st.add_evaluation("run-1", 5 * index, task, 0.1 * index, [{"error": 0.5}])
         st.fork("run-1", at_iteration=22, config={"a": 2}, seed=4, name="child")
         st.create_run(config={}, seed=0, name="empty")
         st.acquire_lock("child", "someone")  # held by this live process
@@ -76,10 +92,23 @@ def test_the_reader_reads_what_the_store_reads(path):
         assert reader.list_runs() == st.list_runs()
         for run in ("run-1", "child", "empty"):
             assert reader.get_run(run) == st.get_run(run)
+            assert reader.checkpoint_iterations(run) == st.checkpoint_iterations(run)
+            for task in (None, "push", "nope"):
+                assert reader.evaluations(run, task) == st.evaluations(run, task), (run, task)
             for at in (None, 0, 4, 5, 22, 23, 39, 50, 1000):
                 assert reader.episode_extra(run, at) == st.episode_extra(run, at), (run, at)
                 _same_episodes(reader.episodes(run, at), st.episodes(run, at))
                 _same_checkpoint(reader.checkpoint(run, at), st.checkpoint(run, at))
+                for aid in (None, 0, 2):
+                    assert reader.events(run, at, affordance_id=aid) == \
+                        st.events(run, at, affordance_id=aid), (run, at, aid)
+                    assert reader.stats(run, at, affordance_id=aid) == \
+                        st.stats(run, at, affordance_id=aid), (run, at, aid)
+                assert reader.dataset_sha256(run, at) == st.dataset_sha256(run, at), (run, at)
+                for mine, theirs in zip(reader.dataset(run, at), st.dataset(run, at),
+                                        strict=True):
+                    assert mine.dtype == theirs.dtype and np.array_equal(mine, theirs)
+                    assert mine.flags.writeable == theirs.flags.writeable
     assert st.get_run("child").lock is not None and st.get_run("child").parent == "run-1"
 
 
@@ -87,6 +116,9 @@ def test_the_reader_fails_as_the_store_fails(path):
     with Store.open(path, create=False) as st, StoreReader.open(path) as reader:
         for call in (lambda s: s.get_run("run-2"), lambda s: s.episode_extra("chld"),
                      lambda s: s.checkpoint("nope"), lambda s: s.episode_extra("run-1", -1),
+                     lambda s: s.checkpoint_iterations("nope"), lambda s: s.events("nope"),
+                     lambda s: s.stats("run-1", -2), lambda s: s.evaluations("nope"),
+                     lambda s: s.dataset_sha256("run-1", 1.5),
                      lambda s: s.checkpoint("run-1", True)):
             with pytest.raises(StoreError) as by_store:
                 call(st)
@@ -95,6 +127,13 @@ def test_the_reader_fails_as_the_store_fails(path):
             assert (type(by_reader.value), str(by_reader.value)) == \
                 (type(by_store.value), str(by_store.value))
         assert isinstance(by_store.value, StoreError)
+        for name in ("run-1", "no spaces"):  # a name taken, a name no run may have
+            with pytest.raises(StoreError) as by_store:
+                st.create_run(config={}, seed=0, name=name)
+            with pytest.raises(StoreError) as by_reader:
+                reader.refuse_taken(name)
+            assert str(by_reader.value) == str(by_store.value)
+        reader.refuse_taken("run-3")  # free
         with pytest.raises(UnknownRun, match="did you mean run-1"):
             reader.get_run("run-2")
         # A live holder: the store's refusal, word for word up to the heartbeat's age.
