@@ -574,6 +574,7 @@ class Controller:
         now, here_raised = float(estimate[0]), float(raised[0])
         to_go = estimate[1:] + raised[1:]
         best: tuple[float, int] | None = None
+        states, first = obs[None], np.zeros(1, dtype=np.int64)
         for depth in range(1, self.pc.horizon + 1):
             if depth > 1:
                 after, ok = self._imagine(states, plan)

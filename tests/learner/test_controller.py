@@ -141,3 +141,17 @@ def test_the_robot_reaches_every_pose_of_the_reach_pose_task(rig):
     config, _, learner = rig
     result = evaluate(learner, config.world, load_task("reach-pose"))
     assert all(p.error <= 0.15 for p in result.points), [round(p.error, 3) for p in result.points]
+
+
+def test_a_deeper_search_runs_and_reaches_the_place_too(rig):
+    """A horizon of two actions (each depth's best `beam` states imagined one action further)
+    runs, and still takes the robot to its place within the same bound as one. (Which first
+    action a deeper search prefers is not checked here.)"""
+    config, world, learner = rig
+    deeper = Controller(learner.hierarchy, learner.reader, config.learner,
+                        dataclasses.replace(config.planner, horizon=2))
+    goal = np.array([-0.6, 0.5])
+    seen, _ = _drive(world, deeper, _mover(learner), Binding(), goal, 30)
+    final = learner.reader.entity_position(seen[-1], 0)
+    assert np.linalg.norm(final - goal) <= 0.05, final
+    assert len(seen) - 1 <= 4 + np.hypot(*goal) / 0.15
