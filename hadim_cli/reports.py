@@ -28,15 +28,18 @@ def entity_label(entity: str, scene) -> str:
 
 
 def affordance_rows(session: Session) -> list[dict[str, Any]]:
-    """H as plain rows; p_A is asked about every entity of the push-object task's scene."""
-    from hadim_cli.evaluation.tasks import load_task
+    """H as plain rows; p_A is asked about every entity of the push-object task's scene (on
+    a body that task is not of, of the world's scene of seed 0)."""
+    from hadim_cli.evaluation.tasks import fits_body, load_task
     from hadim_cli.learner.competence import split_zero  # scipy: only where H is computed
     from hadim_cli.learner.frames import FramedModel
-    from hadim_cli.world.world import World
+    from hadim_cli.world.environment import make_world
 
     learner = session.learner
-    world = World(session.config.world)
-    scene = load_task("push-object").scene
+    world = make_world(session.config.world)
+    task = load_task("push-object")
+    scene = (task.scene if fits_body(task, world.config)
+             else world.draw_scene(np.random.default_rng(0)))
     obs = world.reset(scene=scene)
     rows = []
     for aff in learner.hierarchy:
