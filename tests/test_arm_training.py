@@ -44,6 +44,9 @@ def test_an_arm_run_trains_resumes_exactly_and_lists_what_it_found(runner, tmp_p
     assert ("action", "robot.position") in found  # the effector's motion, the actor's role
     timeline = ok(runner, "affordances", whole, "--timeline", "--store", store).stdout
     assert "created" in timeline
+    # p_A is asked about the arm's own scene: the rover's task scenes place a robot.
+    table = ok(runner, "affordances", whole, "--store", store).stdout
+    assert "p_A on the objects of the scene of seed 0" in table
 
 
 def test_evaluation_on_an_arm_run_is_refused_in_one_line(runner, tmp_path):
