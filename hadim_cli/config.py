@@ -512,7 +512,8 @@ class PlannerConfig:
     run is evaluated, forked and resumed with the installed version's."""
 
     commands: int = 9
-    """Primitive actions the search tries: an n × n grid over the action space."""
+    """Values the search tries per component of the primitive action: a grid of every
+    combination over the action space (n² commands for two components, n³ for three)."""
     horizon: int = 1
     """Actions a searched sequence looks ahead (1: each action valued by the estimated
     actions to go from where it is predicted to end)."""

@@ -10,6 +10,7 @@ from rich.table import Table
 from rich.text import Text
 
 if TYPE_CHECKING:  # the learner (and torch) only where H is rendered from a checkpoint
+    from hadim_cli.config import WorldConfig
     from hadim_cli.evaluation.runner import FirstPush, TaskResult
     from hadim_cli.session import Session
 
@@ -27,16 +28,25 @@ def entity_label(entity: str, scene) -> str:
     return f"{entity} ({'green' if spec.pushable else 'red'})"
 
 
+def probed_on_task(world: WorldConfig) -> bool:
+    """Whether p_A's column of H is asked about the push-object task's scene (the rover's),
+    else about the world's scene of seed 0 (a body that task is not of)."""
+    from hadim_cli.evaluation.tasks import fits_body, load_task
+
+    return fits_body(load_task("push-object"), world)
+
+
 def affordance_rows(session: Session) -> list[dict[str, Any]]:
-    """H as plain rows; p_A is asked about every entity of the push-object task's scene."""
+    """H as plain rows; p_A is asked about every entity of one scene (`probed_on_task`)."""
     from hadim_cli.evaluation.tasks import load_task
     from hadim_cli.learner.competence import split_zero  # scipy: only where H is computed
     from hadim_cli.learner.frames import FramedModel
-    from hadim_cli.world.world import World
+    from hadim_cli.world.environment import make_world
 
     learner = session.learner
-    world = World(session.config.world)
-    scene = load_task("push-object").scene
+    world = make_world(session.config.world)
+    scene = (load_task("push-object").scene if probed_on_task(world.config)
+             else world.draw_scene(np.random.default_rng(0)))
     obs = world.reset(scene=scene)
     rows = []
     for aff in learner.hierarchy:
@@ -90,7 +100,9 @@ def render_errors(console: Console, rows: list[dict[str, Any]], iteration: int) 
     console.print(table)
 
 
-def render_h_table(console: Console, rows: list[dict[str, Any]], iteration: int) -> None:
+def render_h_table(console: Console, rows: list[dict[str, Any]], iteration: int,
+                   on_task: bool = True) -> None:
+    """H's table, then what p_A accepts of the scene it was asked about (`probed_on_task`)."""
     table = Table(title=f"H at iteration {iteration} ({len(rows)} affordances)",
                   caption="born: the iteration it was created; comp.: its competence; "
                           "data: the rows its models are fitted on; moved: those whose output "
@@ -106,8 +118,9 @@ def render_h_table(console: Console, rows: list[dict[str, Any]], iteration: int)
                       str(r["created_at"]), f"{r['competence']:.3f}", str(r["data"]),
                       str(r["effect"]), str(r["goals"]))
     console.print(table)
-    console.print("p_A on the push-object scene's objects (green: pushable, red: fixed):",
-                  markup=False, highlight=False)
+    scene = "the push-object scene's objects" if on_task else "the objects of the scene of seed 0"
+    console.print(f"p_A on {scene} (green: pushable, red: fixed):", markup=False,
+                  highlight=False)
     # A grid: a long list of objects wraps under itself, indented past "A3 accepts".
     accepts = Table.grid(padding=(0, 1))
     accepts.add_column(no_wrap=True)

@@ -10,19 +10,20 @@ from __future__ import annotations
 
 from collections.abc import Callable
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 
 from hadim_cli.config import Config
 from hadim_cli.learner.dataset import Dataset
 from hadim_cli.learner.explorer import Learner, LearningEpisode
-from hadim_cli.world.world import World
+from hadim_cli.world.environment import Environment, make_world
 
 
 class TrainingActuator:
     """Executes primitive actions in the training world and records each one in D."""
 
-    def __init__(self, world: World, dataset: Dataset, obs: np.ndarray):
+    def __init__(self, world: Environment[Any, Any], dataset: Dataset, obs: np.ndarray):
         self.world = world
         self.dataset = dataset
         self._obs = obs
@@ -66,8 +67,9 @@ class Session:
         self.seed = seed
         root = np.random.default_rng(seed)
         self.world_rng, self.learner_rng = root.spawn(2)
-        self.world = World(config.world)
-        self.learner = Learner(config.learner, self.world.layout, config.planner)
+        self.world = make_world(config.world)
+        self.learner = Learner(config.learner, self.world.layout, self.world.action_space,
+                               config.planner)
         self.episodes_done = 0
 
     @property

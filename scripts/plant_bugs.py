@@ -284,8 +284,8 @@ BUGS = (
         f"{REFUSALS}::test_a_pushable_object_is_no_negative_even_where_the_pushing_model"
         "_expects_a_push"),
     Bug("open-contexts-ignored", "hadim_cli/learner/adaptation.py",
-        "every = context_candidates(roles, open_all=self.config.open_contexts)",
-        "every = context_candidates(roles)",
+        "open_all=self.config.open_contexts)",
+        "open_all=False)",
         "tests/learner/test_open_spaces.py::test_the_context_search_tries_the_open_spaces_when"
         "_asked"),
     Bug("open-outputs-ignored", "hadim_cli/learner/adaptation.py",

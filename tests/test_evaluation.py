@@ -99,7 +99,8 @@ def test_a_tool_task_fails_every_point_the_robot_touches_the_target_in():
     from hadim_cli.world.world import World
 
     config = load_config()
-    learner = Learner(config.learner, World(config.world).layout)
+    world = World(config.world)
+    learner = Learner(config.learner, world.layout, world.action_space)
     for inp in ("robot.position", "tool.position"):
         aff = learner.fitter.new_affordance(learner.hierarchy.allocate_id(), parse_space(inp),
                                             parse_space("target.position"), (), Rows.empty(),
@@ -151,7 +152,8 @@ def test_each_point_is_scored_by_the_share_of_its_distance_left_and_the_task_by_
     from hadim_cli.world.world import World
 
     config = load_config()
-    learner = Learner(config.learner, World(config.world).layout)
+    world = World(config.world)
+    learner = Learner(config.learner, world.layout, world.action_space)
     aff = learner.fitter.new_affordance(learner.hierarchy.allocate_id(), ACTION,
                                         parse_space("robot.position"), (), Rows.empty(), 0,
                                         np.random.default_rng(0))

@@ -211,9 +211,11 @@ def affordances(
     if as_json:
         typer.echo(json.dumps(rows, indent=2))
     else:
-        from hadim_cli.reports import render_h_table
+        from hadim_cli.config import stored_config
+        from hadim_cli.reports import probed_on_task, render_h_table
 
-        render_h_table(_console(), rows, iteration)
+        render_h_table(_console(), rows, iteration,
+                       probed_on_task(stored_config(record.config).world))
 
 
 def _learner_run(st, run: str | None, at: int | None, what: str):

@@ -23,10 +23,17 @@ EvalEveryOption = Annotated[int | None, typer.Option(
 
 
 def _eval_every(option: int | None, config) -> int:
+    """The evaluation period, after refusing one the run cannot keep: not a multiple of the
+    episode length, or tasks of another body than the run's."""
     every = config.evaluation.every if option is None else option
     if every and every % config.world.episode_length:
         raise HadimError(f"--eval-every must be a multiple of the episode length "
                          f"({config.world.episode_length}), got {every}")
+    if every:
+        from hadim_cli.evaluation.tasks import check_body, load_task
+
+        for name in config.evaluation.tasks:
+            check_body(load_task(name), config.world)
     return every
 
 

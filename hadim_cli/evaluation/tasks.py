@@ -14,7 +14,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
-from hadim_cli.config import WorldConfig, configs_dir, read_toml
+from hadim_cli.config import Body, WorldConfig, configs_dir, read_toml
 from hadim_cli.errors import HadimError
 from hadim_cli.world.layout import Shape
 from hadim_cli.world.scene import ObjectSpec, Scene
@@ -67,9 +67,24 @@ def load_task_file(path: Path) -> Task:
     return dataclasses.replace(task, name=USER_PREFIX + task.name)
 
 
+def fits_body(task: Task, world: WorldConfig) -> bool:
+    """Whether `task` is one of `world`'s body: every task is the rover's (its scene places
+    the robot)."""
+    return world.body is Body.ROVER
+
+
+def check_body(task: Task, world: WorldConfig) -> None:
+    """Refuse a task of another body than the run's."""
+    if not fits_body(task, world):
+        raise HadimError(f"task {task.name} is a task of the rover; this run's body is the "
+                         f"{world.body.value}, which has no evaluation tasks yet")
+
+
 def check_task(task: Task, world: WorldConfig) -> None:
-    """Refuse a task this run's world cannot attempt: another number of objects, or a target
-    point where the entity cannot be (outside the walls, or inside a fixed object)."""
+    """Refuse a task this run's world cannot attempt: another body's, another number of
+    objects, or a target point where the entity cannot be (outside the walls, or inside a
+    fixed object)."""
+    check_body(task, world)
     n_objects = world.n_green + world.n_red
     if len(task.scene.objects) != n_objects:
         raise HadimError(f"task {task.name} has {len(task.scene.objects)} objects in its scene; "

@@ -108,9 +108,16 @@ class Adaptation:
         self.config = config
         self.backoff = CreationBackoff()
 
+    def context_candidates(self, roles: frozenset[Role]) -> tuple[RoleSpace, ...]:
+        """`spaces.context_candidates` of `roles`, with the properties this world's actor
+        has."""
+        return context_candidates(roles, self.fitter.reader.actor_contexts,
+                                  open_all=self.config.open_contexts)
+
     def non_null_spaces(self, t: np.ndarray) -> list[RoleSpace]:
         outputs = OPEN_OUTPUT_SPACES if self.config.open_outputs else OUTPUT_SPACES
-        return [space for space in outputs if self.fitter.changed(space, t)[1].any()]
+        return [space for space in outputs if self.fitter.reader.declares(space)
+                and self.fitter.changed(space, t)[1].any()]
 
     def pick_spaces(self, spaces: list[RoleSpace],
                     rng: np.random.Generator) -> list[RoleSpace]:
@@ -248,8 +255,7 @@ class Adaptation:
         if self._keeps_competence(aff, rows, rng):
             self._take_in(aff, aff.contexts, rows, iteration, rng)
             return True
-        every = context_candidates(aff.input.roles | aff.output.roles,
-                                   open_all=self.config.open_contexts)
+        every = self.context_candidates(aff.input.roles | aff.output.roles)
         candidates = [c for c in every if c not in aff.contexts]
         for _ in range(len(candidates)):
             c = candidates[int(rng.integers(len(candidates)))]
@@ -314,7 +320,7 @@ class Adaptation:
                                                             dict[str, str]]]:
         roles = aff.input.roles | aff.output.roles
         current = aff.contexts
-        every = context_candidates(roles, open_all=self.config.open_contexts)
+        every = self.context_candidates(roles)
         candidates = [c for c in every if c not in current]
         options: list[tuple[EventKind, tuple[RoleSpace, ...], dict[str, str]]] = []
         for c in candidates:
@@ -599,8 +605,8 @@ class Adaptation:
             return option[0] - foreign_penalty(inp, out, option[1], self.config)
 
         bare = score(())
-        options = [(bare, ())] + [(score((c,)), (c,)) for c in context_candidates(
-            inp.roles | out.roles, open_all=self.config.open_contexts)]
+        options = [(bare, ())] + [(score((c,)), (c,))
+                                  for c in self.context_candidates(inp.roles | out.roles)]
         best = max(options, key=rank)  # the first of equals: no context before any
         # A context must earn its place as in a context change: by `context_gain` over none.
         if best[1] and bare >= self.config.tau_creation \

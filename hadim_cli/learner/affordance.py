@@ -28,9 +28,8 @@ from hadim_cli.learner.spaces import (
     Rows,
     SpaceReader,
     borrowed_space,
-    space_dim,
 )
-from hadim_cli.world.layout import ROBOT, Property
+from hadim_cli.world.layout import Property
 
 CONTACT_MARGIN = 0.02
 """Bodies closer than the sum of their radii plus this (m) are taken to be in contact."""
@@ -127,8 +126,7 @@ def typical_step(aff: Affordance, quantile: float = 0.9, zero_eps: float = 1e-9)
 
 def output_bounds(space: RoleSpace, reader: SpaceReader) -> tuple[np.ndarray, np.ndarray]:
     """Bounds of the absolute values of an output space: the goal space of its interest map."""
-    entity = ROBOT if space.role is Role.ROBOT else reader.layout.objects[0]
-    spec = reader.layout.space(entity, space.prop or Property.POSITION)
+    spec = reader.layout.space(reader.entity_name(space.role), space.prop or Property.POSITION)
     return np.asarray(spec.low, dtype=float), np.asarray(spec.high, dtype=float)
 
 
@@ -203,18 +201,22 @@ class Fitter:
         return sample
 
     def moved_clear(self, rows: Rows) -> np.ndarray:
-        """Rows whose action the robot took clear of everything (`LearnerConfig.free_motion`):
-        no object within contact plus `CONTACT_MARGIN`, and no LIDAR ray (walls, objects)
-        shorter than the robot's radius plus that margin, before and after the action."""
+        """Rows whose action the actor took clear of everything (`LearnerConfig.free_motion`):
+        no object within contact plus `CONTACT_MARGIN` before or after the action, and, where
+        the actor has a LIDAR, no ray (walls, objects) shorter than its radius plus that
+        margin. An actor without one (the arm's effector) is judged by the objects alone: what
+        else stops it (a wall, the arm's base, a joint's limit) shows in its data."""
         d = self.dataset
+        objects = self.bindings(frozenset({Role.TARGET}), rows.t)  # every object, row by row
+        touched = self.touching(objects, Role.ROBOT, after=True).reshape(len(rows), -1)
         lidar = RoleSpace(Role.ROBOT, Property.LIDAR)
+        if not self.reader.declares(lidar):
+            return ~touched.any(axis=1)
         before = self.reader.read(lidar, d.contexts, rows)
         after = before + self.reader.read(lidar, d.outcomes, rows)
         reach = self.reader.read(RoleSpace(Role.ROBOT, Property.RADIUS), d.contexts,
                                  rows)[:, 0] + CONTACT_MARGIN
         clear = (before.min(axis=1) > reach) & (after.min(axis=1) > reach)
-        objects = self.bindings(frozenset({Role.TARGET}), rows.t)  # every object, row by row
-        touched = self.touching(objects, Role.ROBOT, after=True).reshape(len(rows), -1)
         return clear & ~touched.any(axis=1)
 
     def touching_robot(self, rows: Rows) -> np.ndarray:
@@ -271,7 +273,7 @@ class Fitter:
         the outcome reached (paper §4.4)."""
         sample = self.candidate_rows(aff.input, aff.output, t)
         sample = sample.take(np.flatnonzero(self.nonzero(sample.y)))
-        dim = space_dim(aff.output, self.reader.layout)
+        dim = self.reader.dim(aff.output)
         if len(sample.rows) == 0 or aff.model.n == 0:
             return np.zeros((0, dim)), np.zeros(0), np.zeros(0, dtype=np.int64)
         s = self.values(aff.input, aff.output, aff.contexts, sample.rows)
@@ -290,11 +292,9 @@ class Fitter:
         """An empty model of (inp → out | contexts): in the frame of its relation context when
         `relation_frames` is on and it has one, or of the robot's heading (`body_frame`)
         (`relation_frame`)."""
-        layout = self.reader.layout
-        low = np.array([-1.0, -1.0]) if inp is ACTION else None
-        high = np.array([1.0, 1.0]) if inp is ACTION else None
-        dims = (space_dim(inp, layout), space_dim(out, layout),
-                [space_dim(c, layout) for c in contexts])
+        dim = self.reader.dim
+        low, high = self.reader.action_box() if inp is ACTION else (None, None)
+        dims = (dim(inp), dim(out), [dim(c) for c in contexts])
         params = {"k_forward": self.config.k_forward, "k_inverse": self.config.k_inverse,
                   "robust_iterations": self.config.robust_fit, "x_low": low, "x_high": high,
                   # A trial model is scored once and dropped: it keeps `k_forward`, as every

@@ -214,11 +214,13 @@ class Controller:
         self.reader = reader
         self.config = config
         self.pc = PlannerConfig() if planner is None else planner
-        axis = np.linspace(-1.0, 1.0, self.pc.commands)
+        dim = reader.dim(ACTION)
+        axis = np.linspace(-1.0, 1.0, self.pc.commands)  # (every world's box is [-1, 1]^dim)
         axis = np.sign(axis) * np.abs(axis) ** 1.5  # finer near standing still
-        grid = np.stack(np.meshgrid(axis, axis, indexing="ij"), -1).reshape(-1, 2)
+        grid = np.stack(np.meshgrid(*[axis] * dim, indexing="ij"), -1).reshape(-1, dim)
         self.commands = grid[np.linalg.norm(grid, axis=1) > 1e-9]
-        """The primitive actions the search tries (a grid over the action space)."""
+        """The primitive actions the search tries: `commands` values per component of the
+        action, every combination of them but standing still."""
         self._fine = float(np.min(np.abs(axis[np.abs(axis) > 1e-9])))
         """The finest command's share of a full one: states nearer than half of it (in
         actions) are one state to the learned estimates (`_raised`)."""

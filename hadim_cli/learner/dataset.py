@@ -22,7 +22,7 @@ class EpisodeSlice:
 class Dataset:
     """D as three aligned arrays (actions, contexts, outcomes) plus episode boundaries."""
 
-    def __init__(self, obs_size: int, action_size: int = 2):
+    def __init__(self, obs_size: int, action_size: int):
         self.obs_size = obs_size
         self.action_size = action_size
         self._n = 0

@@ -25,6 +25,7 @@ from hadim_cli.learner.goals import Actuator, Binding
 from hadim_cli.learner.hierarchy import Event, Hierarchy
 from hadim_cli.learner.interest import select_index
 from hadim_cli.learner.spaces import ACTION, Property, Role, RoleSpace, SpaceReader
+from hadim_cli.world.actions import ActionSpace
 from hadim_cli.world.layout import ObservationLayout
 
 
@@ -83,15 +84,17 @@ class LearningEpisode:
 
 
 class Learner:
-    """D, H and the machinery acting on them; knows nothing of the world but its layout."""
+    """D, H and the machinery acting on them; knows nothing of the world but what it
+    declares: its observation layout and its primitive action space."""
 
-    def __init__(self, config: LearnerConfig, layout: ObservationLayout,
+    def __init__(self, config: LearnerConfig, layout: ObservationLayout, actions: ActionSpace,
                  planner: PlannerConfig | None = None):
         self.config = config
         self.layout = layout
+        self.actions = actions
         self.reader = SpaceReader(
-            layout, config.relation_offset if config.surface_relations else None)
-        self.dataset = Dataset(layout.size)
+            layout, config.relation_offset if config.surface_relations else None, actions)
+        self.dataset = Dataset(layout.size, actions.dim)
         self.hierarchy = Hierarchy()
         self.fitter = Fitter(self.dataset, self.reader, config)
         self.adaptation = Adaptation(self.hierarchy, self.fitter, config)
@@ -273,7 +276,7 @@ class Learner:
             for _ in range(self.config.random_sequence_length):
                 if actuator.exhausted:
                     break
-                actuator.act(rng.uniform(-1.0, 1.0, size=2))
+                actuator.act(self.random_action(rng))
             return Explored(Mode.RANDOM_ACTION)
         aff = self.hierarchy.controllers(space)[0]
         binding = self.select_binding(aff, actuator.obs)
@@ -288,8 +291,11 @@ class Learner:
             return self._random_action(actuator, rng, Fallback.RANDOM_NO_PLAN)
         return Explored(Mode.RANDOM_CONTROLLABLE, aff.id, goal, attempt.competence)
 
-    @staticmethod
-    def _random_action(actuator: Actuator, rng: np.random.Generator,
+    def random_action(self, rng: np.random.Generator) -> np.ndarray:
+        """One primitive action uniform in the world's action box."""
+        return self.actions.sample(rng, 1)[0]
+
+    def _random_action(self, actuator: Actuator, rng: np.random.Generator,
                        why: Fallback) -> Explored:
-        actuator.act(rng.uniform(-1.0, 1.0, size=2))
+        actuator.act(self.random_action(rng))
         return Explored(Mode.RANDOM_ACTION, fallbacks=(why,))

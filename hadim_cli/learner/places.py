@@ -17,7 +17,7 @@ import numpy as np
 
 from hadim_cli.learner.affordance import Affordance
 from hadim_cli.learner.frames import is_vector, seen_where, turns_with_scene
-from hadim_cli.learner.spaces import Property
+from hadim_cli.world.layout import VISUAL_PROPERTIES
 
 
 def context_slices(aff: Affordance) -> list[slice]:
@@ -85,13 +85,13 @@ def _mirrored(aff: Affordance, ctx: np.ndarray, y: np.ndarray, delta: np.ndarray
               ) -> tuple[np.ndarray, np.ndarray, np.ndarray] | None:
     """The rows followed by their mirror images across the line of `delta` (vectors
     reflected, sizes kept), with the reflection; None when a context has no mirror image
-    (an absolute position, the LIDAR) or the outcome is no 2-D vector."""
+    (an absolute position, the LIDAR, the arm's joints: anything but a vector that turns
+    with the scene and a look) or the outcome is no 2-D vector."""
     length = float(np.linalg.norm(delta))
     if delta.shape[0] != 2 or length < 1e-12 or not is_vector(aff.output):
         return None
-    if any(space.prop is Property.LIDAR or (space.prop is Property.POSITION
-                                            and space.relative_to is None)
-           for space in aff.contexts):
+    if not all(turns_with_scene(space) or space.prop in VISUAL_PROPERTIES
+               for space in aff.contexts):
         return None
     u = delta / length
     flip = 2.0 * np.outer(u, u) - np.eye(2)

@@ -15,7 +15,8 @@ from functools import cached_property
 
 import numpy as np
 
-from hadim_cli.world.layout import ROBOT, VISUAL_PROPERTIES, ObservationLayout, Property
+from hadim_cli.world.actions import ActionSpace
+from hadim_cli.world.layout import VISUAL_PROPERTIES, ObservationLayout, Property
 
 
 class Role(enum.StrEnum):
@@ -23,6 +24,8 @@ class Role(enum.StrEnum):
 
     ACTION = "action"
     ROBOT = "robot"
+    """The actor (entity 0): the body's own part that acts on the objects, whatever the world
+    calls it (the rover's `robot`, the arm's `effector`)."""
     TARGET = "target"
     """The object whose property the affordance changes."""
     TOOL = "tool"
@@ -73,14 +76,17 @@ def parse_space(name: str) -> RoleSpace:
     return RoleSpace(Role(role), Property(prop))
 
 
-def space_dim(space: RoleSpace, layout: ObservationLayout) -> int:
-    if space.role is Role.ACTION:
-        return 2
-    entity = ROBOT if space.role is Role.ROBOT else layout.objects[0]
-    return layout.space(entity, space.prop or Property.POSITION).dim
+def actor_contexts(layout: ObservationLayout) -> tuple[Property, ...]:
+    """The actor's properties that can tell two situations apart: every one the world declares
+    for it but its looks (which never change), in name order — the rover's heading, LIDAR and
+    position, the arm's joints and position."""
+    return tuple(sorted((s.prop for s in layout.spaces
+                         if s.entity == layout.actor and s.prop not in VISUAL_PROPERTIES),
+                        key=lambda p: p.value))
 
 
-# Spaces whose change an affordance may predict (its output). Relative positions are fixed
+# Spaces whose change an affordance may predict (its output), those the world declares
+# (`SpaceReader.declares`: the heading where the actor has one). Relative positions are fixed
 # functions of two absolute positions and LIDAR a function of the room: they serve as contexts
 # only, which keeps H from filling with trivial correlations (see docs/algorithm.md).
 OUTPUT_SPACES: tuple[RoleSpace, ...] = (
@@ -99,19 +105,14 @@ OPEN_OBJECT_PROPERTIES: tuple[Property, ...] = (
 """An object's observed spaces (its position relative to the robot comes as `role-robot`)."""
 
 
-def context_candidates(roles: frozenset[Role], *, open_all: bool = False
-                       ) -> tuple[RoleSpace, ...]:
-    """Every context space that can be read for an affordance involving `roles`: the robot's
-    heading, LIDAR and position; each bound object's position relative to the robot, radius
-    and height; the target's position relative to the tool. With `open_all` (the paper's
-    Algorithm 2, `learner.open_contexts`), every observed space of the bound objects as well:
-    absolute position, colour, shape. (The robot's radius, height, colour and shape never
-    change: they cannot tell two situations apart and are never candidates.)"""
-    out: list[RoleSpace] = [
-        RoleSpace(Role.ROBOT, Property.HEADING),
-        RoleSpace(Role.ROBOT, Property.LIDAR),
-        RoleSpace(Role.ROBOT, Property.POSITION),
-    ]
+def context_candidates(roles: frozenset[Role], actor: tuple[Property, ...], *,
+                       open_all: bool = False) -> tuple[RoleSpace, ...]:
+    """Every context space that can be read for an affordance involving `roles`: the actor's
+    properties `actor` (`actor_contexts`: the rover's heading, LIDAR and position); each
+    bound object's position relative to the actor, radius and height; the target's position
+    relative to the tool. With `open_all` (the paper's Algorithm 2, `learner.open_contexts`),
+    every observed space of the bound objects as well: absolute position, colour, shape."""
+    out: list[RoleSpace] = [RoleSpace(Role.ROBOT, prop) for prop in actor]
     props = OPEN_OBJECT_PROPERTIES if open_all else (Property.RADIUS, Property.HEIGHT)
     for role in (Role.TARGET, Role.TOOL):
         if role not in roles:
@@ -193,19 +194,54 @@ class SpaceReader:
     larger one; r > 0 keeps the direction of a contact.
     """
 
-    def __init__(self, layout: ObservationLayout, relation_offset: float | None = None):
+    def __init__(self, layout: ObservationLayout, relation_offset: float | None = None,
+                 actions: ActionSpace | None = None):
         if relation_offset is not None and relation_offset <= 0:
             raise ValueError(f"relation_offset must be > 0, got {relation_offset}")
         self.layout = layout
         self.relation_offset = relation_offset
+        self.actions = actions
+        """The world's primitive action space (None: a reader of observations only)."""
+        self.actor_contexts = actor_contexts(layout)
         self._entity_start = np.array(
             [layout.space(e, Property.POSITION).start for e in layout.entities], dtype=np.int64)
+
+    def entity_name(self, role: Role) -> str:
+        """The entity whose spaces stand for `role`'s: the actor, or (every object's being
+        alike) the first object."""
+        return self.layout.actor if role is Role.ROBOT else self.layout.objects[0]
+
+    def dim(self, space: RoleSpace) -> int:
+        """Values of `space`: the action's components, or its entity's property's."""
+        if space.role is Role.ACTION:
+            return self._action_space().dim
+        return self.layout.space(self.entity_name(space.role),
+                                 space.prop or Property.POSITION).dim
+
+    def _action_space(self) -> ActionSpace:
+        if self.actions is None:
+            raise ValueError("this reader was given no action space")
+        return self.actions
+
+    def action_box(self) -> tuple[np.ndarray, np.ndarray]:
+        """The primitive action's lower and upper bounds, one per component."""
+        actions = self._action_space()
+        return np.full(actions.dim, actions.low), np.full(actions.dim, actions.high)
+
+    def declares(self, space: RoleSpace) -> bool:
+        """Whether the world observes `space` (the rover's robot has a heading, the arm's
+        effector none)."""
+        if space.role is Role.ACTION:
+            return self.actions is not None
+        prop = space.prop or Property.POSITION
+        return all(self.layout.has(self.entity_name(role), prop)
+                   for role in (space.role, space.relative_to) if role is not None)
 
     @cached_property
     def _offsets(self) -> dict[tuple[bool, Property], tuple[int, int]]:
         """(is_robot, property) → (offset from the entity's position column, dim)."""
         out: dict[tuple[bool, Property], tuple[int, int]] = {}
-        for is_robot, entity in ((True, ROBOT), (False, self.layout.objects[0])):
+        for is_robot, entity in ((True, self.layout.actor), (False, self.layout.objects[0])):
             base = self.layout.space(entity, Property.POSITION).start
             for spec in self.layout.spaces:
                 if spec.entity == entity:
@@ -301,7 +337,8 @@ class SpaceReader:
         upper bound (about [0, 1])."""
         parts = []
         for prop in VISUAL_PROPERTIES:
-            high = np.maximum(np.asarray(self.layout.space(ROBOT, prop).high, dtype=float), 1e-9)
+            high = self.layout.space(self.layout.actor, prop).high
+            high = np.maximum(np.asarray(high, dtype=float), 1e-9)
             parts.append(self.read(RoleSpace(Role.TARGET, prop), arr, rows) / high)
         return np.concatenate(parts, axis=1)
 

@@ -14,6 +14,7 @@ from hadim_cli.config import Config, LearnerConfig
 from hadim_cli.learner.affordance import Affordance
 from hadim_cli.learner.explorer import Learner
 from hadim_cli.learner.spaces import ACTION, Property, Role, RoleSpace, Rows
+from hadim_cli.world.actions import ROVER_ACTIONS
 from hadim_cli.world.layout import LayoutBounds, ObservationLayout
 
 ROBOT_POSITION = RoleSpace(Role.ROBOT, Property.POSITION)
@@ -33,7 +34,7 @@ class Room:
     def __init__(self, config: LearnerConfig | None = None, **overrides):
         self.layout = ObservationLayout.build(3, 4, LayoutBounds(2, 2, 1.5, 0.25, 0.6))
         self.config = replace(config or LearnerConfig(), **overrides)
-        self.learner = Learner(self.config, self.layout)
+        self.learner = Learner(self.config, self.layout, ROVER_ACTIONS)
         self.obs = np.zeros(self.layout.size)
         self.set("robot", Property.RADIUS, [0.15])
         self.set("robot", Property.COLOR, [0.2, 0.2, 0.8])
@@ -148,7 +149,7 @@ def world_learner(config: Config, world, scene, n_free: int = 300, n_push: int =
     """A learner whose H holds the robot's motion (`action → robot.position` and
     `action → robot.heading`, the heading as context) and its push of an object
     (`robot.position → target.position | target-robot`), fitted on `world_rows`."""
-    learner = Learner(config.learner, world.layout, config.planner)
+    learner = Learner(config.learner, world.layout, world.action_space, config.planner)
     rng = np.random.default_rng(0)
     free, push = world_rows(learner, world, scene, rng, n_free, n_push)
     unbound = np.full(free.size, -1, dtype=np.int64)

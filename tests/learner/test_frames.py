@@ -9,6 +9,7 @@ from hadim_cli.learner.competence import split_zero
 from hadim_cli.learner.frames import Frame, FramedModel, relation_frame, seen, seen_where
 from hadim_cli.learner.models import LocalLinearModel
 from hadim_cli.learner.spaces import ACTION, Role, RoleSpace
+from hadim_cli.world.actions import ROVER_ACTIONS
 from hadim_cli.world.layout import Property
 
 REACH = 0.3
@@ -276,7 +277,7 @@ def test_the_learner_config_frames_the_robot_s_motion_models() -> None:
     robot = RoleSpace(Role.ROBOT, Property.POSITION)
     for body in (False, True):
         config = dataclasses.replace(LearnerConfig(), body_frame=body)
-        fitter = Fitter(Dataset(layout.size), SpaceReader(layout), config)
+        fitter = Fitter(Dataset(layout.size, 2), SpaceReader(layout, actions=ROVER_ACTIONS), config)
         for out in (robot, heading):
             model = fitter.new_model(ACTION, out, (heading,))
             assert isinstance(model, FramedModel) is body

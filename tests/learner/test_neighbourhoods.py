@@ -13,6 +13,7 @@ from hadim_cli.learner.dataset import Dataset
 from hadim_cli.learner.frames import Frame, FramedModel
 from hadim_cli.learner.models import LocalLinearModel
 from hadim_cli.learner.spaces import ACTION, Role, RoleSpace, Rows, SpaceReader
+from hadim_cli.world.actions import ROVER_ACTIONS
 from hadim_cli.world.layout import Property
 from hadim_cli.world.world import World
 
@@ -130,7 +131,7 @@ def test_the_learner_config_reaches_the_models_and_old_runs_keep_none() -> None:
     heading = RoleSpace(Role.ROBOT, Property.HEADING)
     for choices in ((), (7, 40)):
         config = dataclasses.replace(LearnerConfig(), k_choices=choices)
-        fitter = Fitter(Dataset(layout.size), SpaceReader(layout), config)
+        fitter = Fitter(Dataset(layout.size, 2), SpaceReader(layout, actions=ROVER_ACTIONS), config)
         for contexts in ((), (heading,)):
             assert fitter.new_model(ACTION, robot, contexts).params()["k_choices"] == choices
     assert LearnerConfig().k_choices == (10, 20, 30)
@@ -148,7 +149,7 @@ def test_a_trial_model_keeps_k_forward(monkeypatch) -> None:
     layout = World(WorldConfig()).layout
     robot = RoleSpace(Role.ROBOT, Property.POSITION)
     heading = RoleSpace(Role.ROBOT, Property.HEADING)
-    fitter = Fitter(Dataset(layout.size), SpaceReader(layout), LearnerConfig())
+    fitter = Fitter(Dataset(layout.size, 2), SpaceReader(layout, actions=ROVER_ACTIONS), LearnerConfig())
     assert fitter.new_model(ACTION, robot, (heading,), trial=True).params()["k_choices"] == ()
     assert fitter.new_model(ACTION, robot, (heading,)).params()["k_choices"] == (10, 20, 30)
     seen = []

@@ -7,9 +7,10 @@ from __future__ import annotations
 import numpy as np
 from handmade import ROBOT_LIDAR, ROBOT_POSITION, TARGET_POSITION, TARGET_ROBOT, Room
 
-from hadim_cli.learner.spaces import Property, Role, RoleSpace, context_candidates
+from hadim_cli.learner.spaces import Property, Role, RoleSpace, actor_contexts, context_candidates
 
 TOOL_TARGET = frozenset({Role.TARGET, Role.TOOL})
+ROVER = actor_contexts(Room().layout)
 
 
 def names(spaces) -> set[str]:
@@ -17,8 +18,8 @@ def names(spaces) -> set[str]:
 
 
 def test_open_candidates_hold_every_observed_space_of_the_bound_objects():
-    closed = names(context_candidates(TOOL_TARGET))
-    opened = names(context_candidates(TOOL_TARGET, open_all=True))
+    closed = names(context_candidates(TOOL_TARGET, ROVER))
+    opened = names(context_candidates(TOOL_TARGET, ROVER, open_all=True))
     assert closed < opened
     for role in ("target", "tool"):
         for prop in ("position", "radius", "height", "color", "shape"):
@@ -27,7 +28,7 @@ def test_open_candidates_hold_every_observed_space_of_the_bound_objects():
         assert f"{role}.color" not in closed and f"{role}.position" not in closed
     assert "target-tool" in opened
     # Only the roles an affordance binds, and never the robot's constant properties.
-    robot_only = names(context_candidates(frozenset({Role.ROBOT}), open_all=True))
+    robot_only = names(context_candidates(frozenset({Role.ROBOT}), ROVER, open_all=True))
     assert robot_only == {"robot.heading", "robot.lidar", "robot.position"}
 
 

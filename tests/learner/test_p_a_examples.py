@@ -60,7 +60,7 @@ def test_p_a_learns_from_objects_pushed_in_vain_not_from_the_model_s_errors():
     config = load_config().learner
     scene = Scene()
     reader = SpaceReader(scene.layout)
-    d = Dataset(scene.layout.size)
+    d = Dataset(scene.layout.size, 2)
     d.start_episode()
     angles = np.linspace(0, 2 * np.pi, 40, endpoint=False)
     for a in angles:  # many pushes of the green obj1 in every direction

@@ -9,6 +9,7 @@ from hadim_cli.learner.spaces import (
     RoleSpace,
     Rows,
     SpaceReader,
+    actor_contexts,
     context_candidates,
     parse_space,
 )
@@ -45,14 +46,15 @@ def test_reader_reads_bound_entities_and_relative_positions():
 
 
 def test_context_candidates_follow_roles():
-    names = {c.name for c in context_candidates(frozenset({Role.ROBOT}))}
+    rover = actor_contexts(_layout())
+    names = {c.name for c in context_candidates(frozenset({Role.ROBOT}), rover)}
     assert "target-robot" not in names and "robot.heading" in names
-    names = {c.name for c in context_candidates(frozenset({Role.TARGET, Role.TOOL}))}
+    names = {c.name for c in context_candidates(frozenset({Role.TARGET, Role.TOOL}), rover)}
     assert {"target-robot", "target-tool", "tool-robot", "target.radius"} <= names
 
 
 def test_dataset_records_outcomes_and_episodes():
-    d = Dataset(obs_size=3)
+    d = Dataset(obs_size=3, action_size=2)
     d.start_episode()
     for i in range(300):  # crosses the initial capacity
         d.append(np.array([0.1, -0.1]), np.full(3, float(i)), np.full(3, float(i) + 0.5))
@@ -63,7 +65,7 @@ def test_dataset_records_outcomes_and_episodes():
     assert [(e.start, e.stop) for e in d.episodes()] == [(0, 300), (300, 301)]
     digest = d.sha256()
     assert digest == dataset_digest(d.actions, d.contexts, d.outcomes)
-    d2 = Dataset(obs_size=3)
+    d2 = Dataset(obs_size=3, action_size=2)
     d2.extend(d.actions[:300], d.contexts[:300], d.outcomes[:300])
     d2.extend(d.actions[300:], d.contexts[300:], d.outcomes[300:])
     assert d2.sha256() == digest
@@ -79,7 +81,7 @@ def test_p_a_features_of_the_robot_are_its_own():
     layout = _layout(3)
     reader = SpaceReader(layout)
     obs = np.random.default_rng(0).uniform(0.1, 1.0, size=(2, layout.size))
-    d = Dataset(layout.size)
+    d = Dataset(layout.size, 2)
     d.append(np.zeros(2), obs[0], obs[1])
     fitter = Fitter(d, reader, load_config().learner)
     entities = np.arange(len(layout.entities))

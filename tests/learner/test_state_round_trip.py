@@ -23,6 +23,7 @@ from hadim_cli.learner.explorer import Learner
 from hadim_cli.learner.hierarchy import EventKind
 from hadim_cli.learner.spaces import ACTION, Rows
 from hadim_cli.learner.state import learner_state, restore_learner
+from hadim_cli.world.actions import ROVER_ACTIONS
 
 IGNORED: dict[str, str] = {}
 """Attribute paths allowed to differ after a restore, with the reason. Empty: none may."""
@@ -137,7 +138,7 @@ def rich_learner() -> Room:
 def restored(room: Room) -> Learner:
     meta, arrays = learner_state(room.learner)
     meta = json.loads(json.dumps(meta))  # what the store keeps: JSON and .npy arrays
-    copy = Learner(room.config, room.layout)
+    copy = Learner(room.config, room.layout, ROVER_ACTIONS)
     for ep in room.dataset.episodes():
         s = slice(ep.start, ep.stop)
         copy.dataset.extend(room.dataset.actions[s], room.dataset.contexts[s],
@@ -191,7 +192,7 @@ def test_a_state_that_does_not_fit_its_learner_is_refused():
     meta = json.loads(json.dumps(meta))
 
     def blank(rows: int | None = None) -> Learner:
-        copy = Learner(room.config, room.layout)
+        copy = Learner(room.config, room.layout, ROVER_ACTIONS)
         n = len(room.dataset) if rows is None else rows
         copy.dataset.extend(room.dataset.actions[:n], room.dataset.contexts[:n],
                             room.dataset.outcomes[:n])

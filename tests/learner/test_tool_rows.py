@@ -11,6 +11,7 @@ from hadim_cli.config import LearnerConfig, WorldConfig
 from hadim_cli.learner.affordance import Fitter
 from hadim_cli.learner.dataset import Dataset
 from hadim_cli.learner.spaces import ACTION, Property, Role, RoleSpace, SpaceReader
+from hadim_cli.world.actions import ROVER_ACTIONS
 from hadim_cli.world.scene import ObjectSpec, Scene
 from hadim_cli.world.world import World
 
@@ -29,12 +30,12 @@ def _push_a_chain(world_config: WorldConfig) -> tuple[Fitter, World]:
                    ObjectSpec(0.48, 0.0, 0.1, 0.2, GREEN, True), *far))
     world = World(world_config)
     obs = world.reset(scene=scene)
-    dataset = Dataset(world.layout.size)
+    dataset = Dataset(world.layout.size, 2)
     dataset.start_episode()
     for _ in range(6):
         before, obs = obs, world.step(np.array([1.0, 1.0]))
         dataset.append(np.array([1.0, 1.0]), before, obs)
-    return Fitter(dataset, SpaceReader(world.layout), LearnerConfig()), world
+    return Fitter(dataset, SpaceReader(world.layout, actions=world.action_space), LearnerConfig()), world
 
 
 def test_tool_rows_drop_targets_the_robot_touches():
@@ -59,8 +60,8 @@ def test_the_learner_config_sets_the_robustness_of_every_new_model(relation_fram
     for robust in (0, 2):
         config = dataclasses.replace(LearnerConfig(), robust_fit=robust,
                                      relation_frames=relation_frames)
-        fitter = Fitter(Dataset(World(WorldConfig()).layout.size),
-                        SpaceReader(World(WorldConfig()).layout), config)
+        fitter = Fitter(Dataset(World(WorldConfig()).layout.size, 2),
+                        SpaceReader(World(WorldConfig()).layout, actions=ROVER_ACTIONS), config)
         for inp, out, contexts in ((ACTION, ROBOT_POS, ()), (ROBOT_POS, TARGET_POS, (REL,))):
             model = fitter.new_model(inp, out, contexts)
             assert getattr(model, "inner", model).robust_iterations == robust
@@ -72,7 +73,7 @@ def _drive_into(world_config: WorldConfig, scene: Scene, action, n: int,
     """`n` times `action` from `scene`; the Fitter over them and the robot's positions."""
     world = World(world_config)
     obs = world.reset(scene=scene)
-    dataset = Dataset(world.layout.size)
+    dataset = Dataset(world.layout.size, 2)
     dataset.start_episode()
     positions = [world.robot_pose()[:2]]
     for _ in range(n):
@@ -80,7 +81,7 @@ def _drive_into(world_config: WorldConfig, scene: Scene, action, n: int,
         dataset.append(np.asarray(action, dtype=float), before, obs)
         positions.append(world.robot_pose()[:2])
     config = dataclasses.replace(LearnerConfig(), free_motion=free_motion)
-    return Fitter(dataset, SpaceReader(world.layout), config), np.asarray(positions)
+    return Fitter(dataset, SpaceReader(world.layout, actions=world.action_space), config), np.asarray(positions)
 
 
 @pytest.mark.parametrize("free_motion", [True, False])

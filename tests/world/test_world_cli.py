@@ -126,12 +126,3 @@ def test_a_bad_arm_value_is_one_error_line(runner, tmp_path, in_checkout, overri
     assert len(lines) == 1 and lines[0].startswith("error: config key 'world."), lines
     assert not out.exists()
 
-
-def test_training_on_the_arm_is_refused_before_anything_is_stored(runner, tmp_path,
-                                                                   in_checkout) -> None:
-    store = tmp_path / "runs.sqlite"
-    result = runner.invoke(app, ["train", "-n", "5", *ARM, "--store", str(store)])
-    assert result.exit_code == 2
-    lines = result.stderr.strip().splitlines()
-    assert len(lines) == 1 and "world.body = 'arm'" in lines[0], lines
-    assert not store.exists()
