@@ -149,7 +149,8 @@ def test_a_trial_model_keeps_k_forward(monkeypatch) -> None:
     layout = World(WorldConfig()).layout
     robot = RoleSpace(Role.ROBOT, Property.POSITION)
     heading = RoleSpace(Role.ROBOT, Property.HEADING)
-    fitter = Fitter(Dataset(layout.size, 2), SpaceReader(layout, actions=ROVER_ACTIONS), LearnerConfig())
+    fitter = Fitter(Dataset(layout.size, 2), SpaceReader(layout, actions=ROVER_ACTIONS),
+                    LearnerConfig())
     assert fitter.new_model(ACTION, robot, (heading,), trial=True).params()["k_choices"] == ()
     assert fitter.new_model(ACTION, robot, (heading,)).params()["k_choices"] == (10, 20, 30)
     seen = []

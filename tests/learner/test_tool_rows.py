@@ -35,7 +35,8 @@ def _push_a_chain(world_config: WorldConfig) -> tuple[Fitter, World]:
     for _ in range(6):
         before, obs = obs, world.step(np.array([1.0, 1.0]))
         dataset.append(np.array([1.0, 1.0]), before, obs)
-    return Fitter(dataset, SpaceReader(world.layout, actions=world.action_space), LearnerConfig()), world
+    reader = SpaceReader(world.layout, actions=world.action_space)
+    return Fitter(dataset, reader, LearnerConfig()), world
 
 
 def test_tool_rows_drop_targets_the_robot_touches():
@@ -81,7 +82,8 @@ def _drive_into(world_config: WorldConfig, scene: Scene, action, n: int,
         dataset.append(np.asarray(action, dtype=float), before, obs)
         positions.append(world.robot_pose()[:2])
     config = dataclasses.replace(LearnerConfig(), free_motion=free_motion)
-    return Fitter(dataset, SpaceReader(world.layout, actions=world.action_space), config), np.asarray(positions)
+    reader = SpaceReader(world.layout, actions=world.action_space)
+    return Fitter(dataset, reader, config), np.asarray(positions)
 
 
 @pytest.mark.parametrize("free_motion", [True, False])
