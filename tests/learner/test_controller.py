@@ -17,6 +17,7 @@ from hadim_cli.evaluation.runner import evaluate
 from hadim_cli.evaluation.tasks import load_task
 from hadim_cli.learner.controller import Controller, detour
 from hadim_cli.learner.goals import Binding
+from hadim_cli.learner.places import needed_context
 from hadim_cli.learner.spaces import Property, Role, RoleSpace
 from hadim_cli.world.world import World
 
@@ -114,6 +115,23 @@ def test_the_same_observation_gives_the_same_action(rig):
     first = [learner.controller.act(obs, learner.controller.pursue(push, Binding(target=1), goal,
                                                               obs)) for _ in range(2)]
     assert first[0] is not None and np.array_equal(first[0], first[1])
+
+
+@pytest.mark.parametrize("angle", [0.0, 2.0])
+def test_a_push_is_made_from_the_line_of_the_move_whichever_way_it_goes(rig, angle):
+    """Discs push alike from either side: the place `needed_context` reads off the real
+    pushes lies behind the target on the line of the wanted move (within 1 mm), and the
+    robot's input moves along that line."""
+    config, _, learner = rig
+    push = next(a for a in learner.hierarchy if a.input == ROBOT_POSITION)
+    u = np.array([np.cos(angle), np.sin(angle)])
+    need, x = needed_context(push, 0.06 * u, np.array([0.3, 0.0]), np.array([True]),
+                             zero_eps=config.learner.zero_eps, k=2 * config.learner.k_inverse,
+                             support=config.planner.context_support,
+                             agreement=config.planner.agreement)
+    across = np.array([-u[1], u[0]])
+    assert abs(need @ across) <= 1e-3 and need @ u >= 0.27  # target − robot: behind, in contact
+    assert abs(x @ across) <= 1e-3 and x @ u > 0.0
 
 
 def test_a_detour_round_a_disc_is_the_tangents_and_the_arc_between_them():

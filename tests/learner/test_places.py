@@ -1,0 +1,69 @@
+"""`places.needed_context` on hand-written pushes: the place an affordance acts from is the
+relation its rows nearest the wanted outcome were seen in, and the input they moved by; an
+affordance of the primitive action has no input to give."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from handmade import ROBOT_HEADING, ROBOT_LIDAR, ROBOT_POSITION, TARGET_POSITION, TARGET_ROBOT, Room
+
+from hadim_cli.learner.places import needed_context
+from hadim_cli.learner.spaces import Rows
+
+WANTED = np.array([0.05, 0.0])
+LIDAR = [1.0, 1.0, 1.0, 1.0]
+
+
+def _pushes(room: Room, pushes) -> tuple[np.ndarray, np.ndarray]:
+    """Rows of obj1 pushed along +x by the robot from `gap` behind its centre, by `move`,
+    for each (gap, move); returns their iterations and observations before."""
+    room.episode()
+    t, before = [], []
+    for gap, move in pushes:
+        room.place("obj1", [0.0, 0.0])
+        room.place("robot", [-gap, 0.0])
+        before.append(room.obs.copy())
+        room.place("robot", [move - gap, 0.0])
+        room.place("obj1", [move, 0.0])
+        t.append(room.dataset.append(np.zeros(2), before[-1], room.obs.copy()))
+    return np.array(t, dtype=np.int64), np.array(before)
+
+
+@pytest.mark.parametrize("contexts", [(TARGET_ROBOT,), (TARGET_ROBOT, ROBOT_LIDAR)],
+                         ids=["mirrored", "with-a-context-that-has-no-mirror-image"])
+def test_the_place_is_the_relation_the_k_rows_nearest_the_wanted_outcome_were_seen_in(contexts):
+    """Forty pushes along +x by 0.05 ± 0.002·j, j = 1…20; the four nearest the wanted
+    0.05 (j ≤ 2) from one gap, the next two (j = 3) from a gap 2 cm further, the rest from
+    far off. With k = 4 the place is the four's relation exactly, and the input their move
+    — whether the rows are also seen in a mirror (relations only) or not (a LIDAR context):
+    one row more would move it."""
+    room = Room()
+    room.set("robot", ROBOT_LIDAR.prop, LIDAR)
+    pushes = [(0.30 if j <= 2 else 0.32 if j == 3 else (0.2 if j % 2 else 0.5),
+               WANTED[0] + sign * 0.002 * j) for j in range(1, 21) for sign in (1, -1)]
+    t, before = _pushes(room, pushes)
+    rows = Rows(t, np.full(t.size, 1, dtype=np.int64), np.full(t.size, -1, dtype=np.int64))
+    push = room.fitter.new_affordance(room.hierarchy.allocate_id(), ROBOT_POSITION,
+                                      TARGET_POSITION, contexts, rows, len(room.dataset),
+                                      np.random.default_rng(0))
+    seen = room.learner.reader.read_each((TARGET_ROBOT,), before, 1, -1)
+    nearest = seen[:4]  # j = 1, 2, both signs
+    assert np.ptp(nearest, axis=0) == pytest.approx([0.0, 0.0])
+    c = np.concatenate([[0.25, 0.1], LIDAR[:4 * (len(contexts) - 1)]])
+    driven = np.array([True] + [False] * (len(contexts) - 1))
+    need, x = needed_context(push, WANTED, c, driven, zero_eps=1e-4, k=4, support=0.1,
+                             agreement=0.4)
+    assert need[:2] == pytest.approx(nearest[0], abs=1e-9)
+    assert np.array_equal(need[2:], c[2:])  # the contexts not driven are kept
+    assert x == pytest.approx(WANTED, abs=1e-9)
+
+
+def test_an_affordance_of_the_primitive_action_gives_a_place_but_no_input():
+    room = Room()
+    t = room.moves(np.random.default_rng(1), 60)
+    drive = room.affordance(t, contexts=(ROBOT_HEADING,))
+    need, x = needed_context(drive, WANTED, np.array([1.0, 0.0]), np.array([True]),
+                             zero_eps=1e-4, k=8, support=0.1, agreement=0.4)
+    assert x is None
+    assert need.shape == (2,) and np.all(np.isfinite(need))
