@@ -10,7 +10,7 @@ import dataclasses
 
 import numpy as np
 import pytest
-from handmade import world_learner
+from handmade import Room, world_learner
 
 from hadim_cli.config import load_config
 from hadim_cli.evaluation.runner import evaluate
@@ -159,3 +159,49 @@ def test_the_robot_reaches_every_pose_of_the_reach_pose_task(rig):
     config, _, learner = rig
     result = evaluate(learner, config.world, load_task("reach-pose"))
     assert all(p.error <= 0.15 for p in result.points), [round(p.error, 3) for p in result.points]
+
+
+def test_a_robot_without_a_turning_affordance_is_driven_as_it_is_headed():
+    """H holds `action → robot.position` alone (the robot seen at one heading, along +x):
+    the controller acts without a turn to plan, forward towards a goal ahead."""
+    room = Room()
+    t = room.moves(np.random.default_rng(2), 80, heading=0.0)
+    drive = room.affordance(t)
+    room.place("robot", [0.0, 0.0])
+    room.set("robot", Property.HEADING, [1.0, 0.0])
+    controller = room.learner.controller
+    goal = np.array([0.4, 0.0])
+    pursuit = controller.pursue(drive, Binding(), goal, room.obs)
+    action = controller.act(room.obs, pursuit)
+    assert action is not None and action.mean() > 0.5  # about full speed forward
+    assert drive.model.predict(action[None])[0] @ goal > 0
+
+
+def test_each_decision_tells_the_observer_its_movers_distance_to_its_place(rig):
+    """Pushing obj1, the observer is handed per action one gap (the push level's): the
+    robot's way to the place behind obj1 (read off the pushes here), about the straight line
+    to it (nothing in between), and the action serves that place."""
+    config, world, learner = rig
+    controller = learner.controller
+    push = next(a for a in learner.hierarchy if a.input == ROBOT_POSITION)
+    decisions = []
+    controller.observer = decisions.append
+    try:
+        obs = world.reset(scene=TASK.scene)
+        goal = np.array(TASK.points[2])
+        pursuit = controller.pursue(push, Binding(target=1), goal, obs)
+        action = controller.act(obs, pursuit)
+    finally:
+        controller.observer = None
+    assert action is not None and len(decisions) == 1
+    target = learner.reader.entity_position(obs, 1)
+    way = goal - target
+    place, _ = needed_context(push, 0.06 * way / np.linalg.norm(way), np.zeros(2),
+                              np.array([True]), zero_eps=config.learner.zero_eps,
+                              k=2 * config.learner.k_inverse,
+                              support=config.planner.context_support,
+                              agreement=config.planner.agreement)
+    straight = np.linalg.norm(target - place - learner.reader.entity_position(obs, 0))
+    (gap,) = decisions[0].gaps
+    assert straight - 0.02 <= gap <= straight + 0.1
+    assert decisions[0].label == f"place robot for A{push.id}"
