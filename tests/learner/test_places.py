@@ -67,3 +67,44 @@ def test_an_affordance_of_the_primitive_action_gives_a_place_but_no_input():
                              zero_eps=1e-4, k=8, support=0.1, agreement=0.4)
     assert x is None
     assert need.shape == (2,) and np.all(np.isfinite(need))
+
+
+def test_the_place_is_read_off_rows_seen_in_the_current_fixed_contexts():
+    """Four pushes by exactly the wanted 0.05 seen with a LIDAR 5 mm off the current one,
+    four by 0.06 seen with the current LIDAR, the rest far in both: the first four are the
+    nearest (their outcome is, and their LIDAR nearly is), and give the place — unless
+    the current LIDAR is far from theirs."""
+    room = Room()
+    rng = np.random.default_rng(4)
+    groups = [(0.30, 0.05, 0.105), (0.36, 0.06, 0.1)]
+    pushes, lidars = [], []
+    for gap, move, lidar in groups:
+        for d in (-0.0005, -0.0002, 0.0002, 0.0005):
+            pushes.append((gap, move + d))
+            lidars.append(lidar)
+    for i in range(32):
+        pushes.append((0.2 if i % 2 else 0.5, rng.uniform(0.01, 0.03) if i % 4 < 2
+                       else rng.uniform(0.08, 0.1)))
+        lidars.append(rng.uniform(0.03, 0.06) if i % 3 else rng.uniform(0.15, 0.16))
+    room.episode()
+    t, before = [], []
+    for (gap, move), lidar in zip(pushes, lidars, strict=True):
+        room.set("robot", ROBOT_LIDAR.prop, [lidar] * 4)
+        ti, bi = _pushes(room, [(gap, move)])
+        t.append(ti[0])
+        before.append(bi[0])
+    t, before = np.array(t), np.array(before)
+    rows = Rows(t, np.full(t.size, 1, dtype=np.int64), np.full(t.size, -1, dtype=np.int64))
+    push = room.fitter.new_affordance(room.hierarchy.allocate_id(), ROBOT_POSITION,
+                                      TARGET_POSITION, (TARGET_ROBOT, ROBOT_LIDAR), rows,
+                                      len(room.dataset), np.random.default_rng(0))
+    seen = room.learner.reader.read_each((TARGET_ROBOT,), before, 1, -1)
+    c = np.array([0.25, 0.1, 0.1, 0.1, 0.1, 0.1])
+    need, _ = needed_context(push, WANTED, c, np.array([True, False]), zero_eps=1e-4, k=4,
+                             support=0.1, agreement=0.4)
+    assert need[:2] == pytest.approx(seen[0], abs=1e-9)
+    # Seen from a LIDAR of 0.16, those four (their LIDAR 0.055 off) are no longer the nearest.
+    c[2:] = 0.16
+    far, _ = needed_context(push, WANTED, c, np.array([True, False]), zero_eps=1e-4, k=4,
+                            support=0.1, agreement=0.4)
+    assert abs(far[0] - seen[0][0]) > 0.01
