@@ -13,8 +13,10 @@ import pytest
 from handmade import Room, world_learner
 
 from hadim_cli.config import load_config
+from hadim_cli.evaluation.exact import exact_levels
 from hadim_cli.evaluation.runner import evaluate
 from hadim_cli.evaluation.tasks import load_task
+from hadim_cli.learner.affordance import typical_step
 from hadim_cli.learner.controller import Controller, detour
 from hadim_cli.learner.goals import Binding
 from hadim_cli.learner.places import needed_context
@@ -205,3 +207,45 @@ def test_each_decision_tells_the_observer_its_movers_distance_to_its_place(rig):
     (gap,) = decisions[0].gaps
     assert straight - 0.02 <= gap <= straight + 0.1
     assert decisions[0].label == f"place robot for A{push.id}"
+
+
+@pytest.mark.parametrize("goal_x", [1.25, 0.95])
+def test_the_estimate_is_the_targets_way_in_pushes_plus_the_robots_way_to_its_place(rig, goal_x):
+    """obj1 ahead of the robot on the line of its goal, the robot facing it: the estimate
+    handed to the observer is obj1's way in the push's steps plus the robot's way to
+    contact behind obj1 in the drive's steps (each level's step: `step_quantile` of its
+    non-null outcome norms), with no turn to pay and whatever the way's length."""
+    config, world, learner = rig
+    controller, reader = learner.controller, learner.reader
+    push = next(a for a in learner.hierarchy if a.input == ROBOT_POSITION)
+    drive = _mover(learner)
+    q, zero = config.planner.step_quantile, config.learner.zero_eps
+    decisions = []
+    controller.observer = decisions.append
+    try:
+        obs = world.reset(scene=TASK.scene)
+        goal = np.array([goal_x, 0.0])
+        controller.act(obs, controller.pursue(push, Binding(target=1), goal, obs))
+    finally:
+        controller.observer = None
+    target, robot = reader.entity_position(obs, 1), reader.entity_position(obs, 0)
+    contact = config.world.robot_radius + TASK.scene.objects[0].radius
+    place = target - contact * (goal - target) / np.linalg.norm(goal - target)
+    expected = (np.linalg.norm(goal - target) / typical_step(push, q, zero)
+                + np.linalg.norm(place - robot) / typical_step(drive, q, zero))
+    assert decisions[0].to_go == pytest.approx(expected, rel=1e-3)
+
+
+def test_an_exact_level_is_imagined_by_the_rooms_physics_instead_of_its_model():
+    """A drive learned facing −x (forward moves the robot −x, whatever the heading seen now)
+    sends a robot facing +x backwards to a goal ahead; with the navigation level exact
+    (`evaluation.exact`), the controller drives it forwards."""
+    room = Room()
+    drive = room.affordance(room.moves(np.random.default_rng(2), 80, heading=np.pi))
+    room.place("robot", [0.0, 0.0])
+    room.set("robot", Property.HEADING, [1.0, 0.0])
+    controller, goal = room.learner.controller, np.array([0.4, 0.0])
+    learned = controller.act(room.obs, controller.pursue(drive, Binding(), goal, room.obs))
+    with exact_levels(room.learner, load_config().world, ("navigation",)):
+        exact = controller.act(room.obs, controller.pursue(drive, Binding(), goal, room.obs))
+    assert learned.mean() < -0.5 and exact.mean() > 0.5
