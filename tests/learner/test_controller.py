@@ -249,3 +249,13 @@ def test_an_exact_level_is_imagined_by_the_rooms_physics_instead_of_its_model():
     with exact_levels(room.learner, load_config().world, ("navigation",)):
         exact = controller.act(room.obs, controller.pursue(drive, Binding(), goal, room.obs))
     assert learned.mean() < -0.5 and exact.mean() > 0.5
+
+
+def test_a_search_two_actions_deep_turns_the_robot_towards_a_goal_on_its_right(rig):
+    config, world, learner = rig
+    deeper = Controller(learner.hierarchy, learner.reader, config.learner,
+                        dataclasses.replace(config.planner, horizon=2))
+    obs = world.reset(scene=TASK.scene)
+    goal = np.array([0.0, -0.7])  # the robot faces +x: a quarter turn first, to the right
+    action = deeper.act(obs, deeper.pursue(_mover(learner), Binding(), goal, obs))
+    assert action is not None and action[0] > action[1]
