@@ -259,3 +259,14 @@ def test_a_search_two_actions_deep_turns_the_robot_towards_a_goal_on_its_right(r
     goal = np.array([0.0, -0.7])  # the robot faces +x: a quarter turn first, to the right
     action = deeper.act(obs, deeper.pursue(_mover(learner), Binding(), goal, obs))
     assert action is not None and action[0] > action[1]
+
+
+def test_a_detour_from_a_discs_rim_leaves_along_its_tangent():
+    """From a point on the rim (0.6 of the way left, 0.8 up) to beyond the disc's far side:
+    the way starts along the rim — a unit direction square to the radius."""
+    radial = np.array([-0.6, 0.8])
+    frm, to = 0.5 * radial[None], np.array([[0.9, -0.6]])
+    length, first, _ = detour(frm, to, np.zeros((1, 1, 2)), np.full((1, 1), 0.5))
+    assert length[0] > np.linalg.norm(to - frm)
+    assert np.linalg.norm(first[0]) == pytest.approx(1.0)
+    assert first[0] @ radial == pytest.approx(0.0, abs=1e-12)
