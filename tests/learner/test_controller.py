@@ -56,6 +56,33 @@ def _drive(world, controller, aff, binding, goal, budget):
     return seen, touched
 
 
+def _push(learner):
+    return next(a for a in learner.hierarchy if a.input == ROBOT_POSITION)
+
+
+def _first_decision(world, controller, aff, binding, goal):
+    """The first action of a pursuit of `goal` from the task's scene, and the `Decision`
+    the observer was handed for it; returns (observation, action, decision)."""
+    decisions = []
+    controller.observer = decisions.append
+    try:
+        obs = world.reset(scene=TASK.scene)
+        action = controller.act(obs, controller.pursue(aff, binding, goal, obs))
+    finally:
+        controller.observer = None
+    assert len(decisions) == (action is not None)
+    return obs, action, decisions[0] if decisions else None
+
+
+def _place(config, aff, wanted):
+    """`needed_context` of `aff`'s relation for the outcome `wanted`, with the planner's
+    constants (as the controller asks it)."""
+    return needed_context(aff, wanted, np.zeros(2), np.array([True]),
+                          zero_eps=config.learner.zero_eps, k=2 * config.learner.k_inverse,
+                          support=config.planner.context_support,
+                          agreement=config.planner.agreement)
+
+
 @pytest.mark.parametrize("goal", [(-0.6, 0.5), (0.0, -0.7), (-0.8, -0.3)])
 def test_the_robot_reaches_a_place(rig, goal):
     _, world, learner = rig
@@ -113,7 +140,7 @@ def test_the_same_observation_gives_the_same_action(rig):
     _, world, learner = rig
     obs = world.reset(scene=TASK.scene)
     goal = np.array(TASK.points[2])
-    push = next(a for a in learner.hierarchy if a.input == ROBOT_POSITION)
+    push = _push(learner)
     first = [learner.controller.act(obs, learner.controller.pursue(push, Binding(target=1), goal,
                                                               obs)) for _ in range(2)]
     assert first[0] is not None and np.array_equal(first[0], first[1])
@@ -125,12 +152,8 @@ def test_a_push_is_made_from_the_line_of_the_move_whichever_way_it_goes(rig, ang
     pushes lies behind the target on the line of the wanted move (within 1 mm), and the
     robot's input moves along that line."""
     config, _, learner = rig
-    push = next(a for a in learner.hierarchy if a.input == ROBOT_POSITION)
     u = np.array([np.cos(angle), np.sin(angle)])
-    need, x = needed_context(push, 0.06 * u, np.array([0.3, 0.0]), np.array([True]),
-                             zero_eps=config.learner.zero_eps, k=2 * config.learner.k_inverse,
-                             support=config.planner.context_support,
-                             agreement=config.planner.agreement)
+    need, x = _place(config, _push(learner), 0.06 * u)
     across = np.array([-u[1], u[0]])
     assert abs(need @ across) <= 1e-3 and need @ u >= 0.27  # target − robot: behind, in contact
     assert abs(x @ across) <= 1e-3 and x @ u > 0.0
@@ -184,29 +207,16 @@ def test_each_decision_tells_the_observer_its_movers_distance_to_its_place(rig):
     robot's way to the place behind obj1 (read off the pushes here), about the straight line
     to it (nothing in between), and the action serves that place."""
     config, world, learner = rig
-    controller = learner.controller
-    push = next(a for a in learner.hierarchy if a.input == ROBOT_POSITION)
-    decisions = []
-    controller.observer = decisions.append
-    try:
-        obs = world.reset(scene=TASK.scene)
-        goal = np.array(TASK.points[2])
-        pursuit = controller.pursue(push, Binding(target=1), goal, obs)
-        action = controller.act(obs, pursuit)
-    finally:
-        controller.observer = None
-    assert action is not None and len(decisions) == 1
+    push, goal = _push(learner), np.array(TASK.points[2])
+    obs, action, decision = _first_decision(world, learner.controller, push, Binding(target=1),
+                                            goal)
+    assert action is not None
     target = learner.reader.entity_position(obs, 1)
-    way = goal - target
-    place, _ = needed_context(push, 0.06 * way / np.linalg.norm(way), np.zeros(2),
-                              np.array([True]), zero_eps=config.learner.zero_eps,
-                              k=2 * config.learner.k_inverse,
-                              support=config.planner.context_support,
-                              agreement=config.planner.agreement)
+    place, _ = _place(config, push, 0.06 * (goal - target) / np.linalg.norm(goal - target))
     straight = np.linalg.norm(target - place - learner.reader.entity_position(obs, 0))
-    (gap,) = decisions[0].gaps
+    (gap,) = decision.gaps
     assert straight - 0.02 <= gap <= straight + 0.1
-    assert decisions[0].label == f"place robot for A{push.id}"
+    assert decision.label == f"place robot for A{push.id}"
 
 
 @pytest.mark.parametrize("goal_x", [1.25, 0.95])
@@ -216,24 +226,16 @@ def test_the_estimate_is_the_targets_way_in_pushes_plus_the_robots_way_to_its_pl
     contact behind obj1 in the drive's steps (each level's step: `step_quantile` of its
     non-null outcome norms), with no turn to pay and whatever the way's length."""
     config, world, learner = rig
-    controller, reader = learner.controller, learner.reader
-    push = next(a for a in learner.hierarchy if a.input == ROBOT_POSITION)
-    drive = _mover(learner)
+    reader, push, drive = learner.reader, _push(learner), _mover(learner)
     q, zero = config.planner.step_quantile, config.learner.zero_eps
-    decisions = []
-    controller.observer = decisions.append
-    try:
-        obs = world.reset(scene=TASK.scene)
-        goal = np.array([goal_x, 0.0])
-        controller.act(obs, controller.pursue(push, Binding(target=1), goal, obs))
-    finally:
-        controller.observer = None
+    goal = np.array([goal_x, 0.0])
+    obs, _, decision = _first_decision(world, learner.controller, push, Binding(target=1), goal)
     target, robot = reader.entity_position(obs, 1), reader.entity_position(obs, 0)
     contact = config.world.robot_radius + TASK.scene.objects[0].radius
     place = target - contact * (goal - target) / np.linalg.norm(goal - target)
     expected = (np.linalg.norm(goal - target) / typical_step(push, q, zero)
                 + np.linalg.norm(place - robot) / typical_step(drive, q, zero))
-    assert decisions[0].to_go == pytest.approx(expected, rel=1e-3)
+    assert decision.to_go == pytest.approx(expected, rel=1e-3)
 
 
 def test_an_exact_level_is_imagined_by_the_rooms_physics_instead_of_its_model():
