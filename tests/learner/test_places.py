@@ -108,3 +108,23 @@ def test_the_place_is_read_off_rows_seen_in_the_current_fixed_contexts():
     far, _ = needed_context(push, WANTED, c, np.array([True, False]), zero_eps=1e-4, k=4,
                             support=0.1, agreement=0.4)
     assert abs(far[0] - seen[0][0]) > 0.01
+
+
+def test_the_place_is_fitted_at_the_wanted_outcome_not_averaged_over_the_rows_near_it():
+    """Pushes by 0.05 + 0.002·j, j = 1…40 — all longer than the wanted 0.05 — each from a gap
+    growing with its move (gap = 0.30 + 0.5·(move − 0.05)): the place is the gap of a push by
+    exactly 0.05, which no row holds, read off the k rows nearest by a line through them;
+    the input likewise."""
+    room = Room()
+    moves = WANTED[0] + 0.002 * np.arange(1, 41)
+    t, before = _pushes(room, [(0.30 + 0.5 * (m - WANTED[0]), m) for m in moves])
+    rows = Rows(t, np.full(t.size, 1, dtype=np.int64), np.full(t.size, -1, dtype=np.int64))
+    push = room.fitter.new_affordance(room.hierarchy.allocate_id(), ROBOT_POSITION,
+                                      TARGET_POSITION, (TARGET_ROBOT,), rows,
+                                      len(room.dataset), np.random.default_rng(0))
+    seen = room.learner.reader.read_each((TARGET_ROBOT,), before, 1, -1)
+    line = np.polyfit(moves, seen[:, 0], 1)
+    need, x = needed_context(push, WANTED, np.array([0.25, 0.1]), np.array([True]),
+                             zero_eps=1e-4, k=8, support=0.1, agreement=0.4)
+    assert need == pytest.approx([np.polyval(line, WANTED[0]), 0.0], abs=1e-9)
+    assert x == pytest.approx(WANTED, abs=1e-9)
