@@ -1,6 +1,7 @@
 """`places.needed_context` on hand-written pushes: the place an affordance acts from is the
 relation its rows nearest the wanted outcome were seen in, and the input they moved by; an
-affordance of the primitive action has no input to give."""
+affordance of the primitive action has no input to give; the relation a level of
+`Controller.chain` acts from."""
 
 from __future__ import annotations
 
@@ -8,7 +9,8 @@ import numpy as np
 import pytest
 from handmade import ROBOT_HEADING, ROBOT_LIDAR, ROBOT_POSITION, TARGET_POSITION, TARGET_ROBOT, Room
 
-from hadim_cli.learner.places import needed_context
+from hadim_cli.learner.goals import Binding
+from hadim_cli.learner.places import context_slices, needed_context
 from hadim_cli.learner.spaces import Rows
 
 WANTED = np.array([0.05, 0.0])
@@ -128,3 +130,19 @@ def test_the_place_is_fitted_at_the_wanted_outcome_not_averaged_over_the_rows_ne
                              zero_eps=1e-4, k=8, support=0.1, agreement=0.4)
     assert need == pytest.approx([np.polyval(line, WANTED[0]), 0.0], abs=1e-9)
     assert x == pytest.approx(WANTED, abs=1e-9)
+
+
+def test_a_level_acts_from_the_relation_of_its_mover_to_its_body():
+    """A push seen with the target's absolute place as a context before the target-robot
+    relation: the level `Controller.chain` gives it acts from the relation (its columns in
+    the push's contexts), not from the other context of the target."""
+    room = Room()
+    drive = room.affordance(room.moves(np.random.default_rng(5), 40))
+    t, _ = _pushes(room, [(0.3, 0.04 + 0.001 * j) for j in range(20)])
+    rows = Rows(t, np.full(t.size, 1, dtype=np.int64), np.full(t.size, -1, dtype=np.int64))
+    push = room.fitter.new_affordance(room.hierarchy.allocate_id(), ROBOT_POSITION,
+                                      TARGET_POSITION, (TARGET_POSITION, TARGET_ROBOT), rows,
+                                      len(room.dataset), np.random.default_rng(0))
+    levels = room.learner.controller.chain(push, Binding(target=1))
+    assert [lv.affordance for lv in levels] == [push, drive]
+    assert levels[0].relation == context_slices(push)[1] and levels[1].relation is None
