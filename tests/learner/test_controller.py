@@ -272,3 +272,12 @@ def test_a_detour_from_a_discs_rim_leaves_along_its_tangent():
     assert length[0] > np.linalg.norm(to - frm)
     assert np.linalg.norm(first[0]) == pytest.approx(1.0)
     assert first[0] @ radial == pytest.approx(0.0, abs=1e-12)
+
+
+def test_the_search_tries_an_n_by_n_grid_of_commands_over_the_action_box(rig):
+    config, _, learner = rig
+    five = Controller(learner.hierarchy, learner.reader, config.learner,
+                      dataclasses.replace(config.planner, commands=5))
+    assert five.commands.shape == (24, 2)  # 5 × 5, standing still left out
+    assert {tuple(c) for c in five.commands} >= {(-1.0, -1.0), (-1.0, 1.0), (1.0, 1.0), (1.0, 0.0)}
+    assert np.abs(five.commands).max() == 1.0 and not np.any(np.all(five.commands == 0, axis=1))
