@@ -10,7 +10,7 @@ one primitive action and observes. Same scene and actions, bit-identical observa
 from __future__ import annotations
 
 from abc import ABC, abstractmethod
-from typing import Any, Generic, TypeVar
+from typing import Any, Generic, Protocol, TypeVar
 
 import numpy as np
 
@@ -18,11 +18,18 @@ from hadim_cli.config import Body, WorldConfig
 from hadim_cli.errors import HadimError
 from hadim_cli.world.actions import ActionSpace
 from hadim_cli.world.layout import ObservationLayout, Property, Shape
-from hadim_cli.world.physics import n_settle_substeps, n_substeps
+from hadim_cli.world.physics import n_settle_substeps, n_substeps, release
 from hadim_cli.world.scene import ObjectSpec
 
 SceneT = TypeVar("SceneT")
-PhysicsT = TypeVar("PhysicsT")
+
+
+class _HasSpace(Protocol):
+    space: Any
+    """The episode's `pymunk.Space`."""
+
+
+PhysicsT = TypeVar("PhysicsT", bound=_HasSpace)
 
 
 class Environment(ABC, Generic[SceneT, PhysicsT]):
@@ -89,6 +96,8 @@ class Environment(ABC, Generic[SceneT, PhysicsT]):
                 rng = np.random.default_rng(seed)
             scene = self.draw_scene(rng)
         self._check_scene(scene)
+        if self._physics is not None:
+            release(self._physics.space)  # not left to the garbage collector: see `release`
         self._physics = self._build(scene)
         self._scene = scene
         self._steps = 0

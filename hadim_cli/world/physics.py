@@ -126,6 +126,19 @@ class Physics:
     """Reads the robot's pose (row 0) and the objects' (rows 1…, scene order)."""
 
 
+def release(space: pymunk.Space) -> None:
+    """Empty `space` while everything in it is alive, before the space is dropped.
+
+    pymunk frees a space, its bodies, shapes and joints through finalizers, and they hold one
+    another in cycles (each object and the cffi handle of it), so the garbage collector runs
+    those finalizers together, in no set order. Removing a shape that touches another calls
+    the contact callbacks, which read both shapes through their handles: in a collection, one
+    of them may already be freed (a segfault inside a later `pymunk.Body(...)`, where the
+    collection ran). An emptied space leaves its finalizers nothing to remove and nothing to
+    call back."""
+    space.remove(*space.constraints, *space.shapes, *space.bodies)
+
+
 def new_space() -> pymunk.Space:
     """An empty top-down space, its collision slop in metres."""
     space = pymunk.Space()

@@ -10,13 +10,16 @@ import dataclasses
 
 import numpy as np
 import pytest
-from handmade import world_learner
+from handmade import Room, world_learner
 
 from hadim_cli.config import load_config
+from hadim_cli.evaluation.exact import exact_levels
 from hadim_cli.evaluation.runner import evaluate
 from hadim_cli.evaluation.tasks import load_task
+from hadim_cli.learner.affordance import typical_step
 from hadim_cli.learner.controller import Controller, detour
 from hadim_cli.learner.goals import Binding
+from hadim_cli.learner.places import needed_context
 from hadim_cli.learner.spaces import Property, Role, RoleSpace
 from hadim_cli.world.world import World
 
@@ -51,6 +54,33 @@ def _drive(world, controller, aff, binding, goal, budget):
         seen.append(obs)
         touched |= set(world.last_contacts)
     return seen, touched
+
+
+def _push(learner):
+    return next(a for a in learner.hierarchy if a.input == ROBOT_POSITION)
+
+
+def _first_decision(world, controller, aff, binding, goal):
+    """The first action of a pursuit of `goal` from the task's scene, and the `Decision`
+    the observer was handed for it; returns (observation, action, decision)."""
+    decisions = []
+    controller.observer = decisions.append
+    try:
+        obs = world.reset(scene=TASK.scene)
+        action = controller.act(obs, controller.pursue(aff, binding, goal, obs))
+    finally:
+        controller.observer = None
+    assert len(decisions) == (action is not None)
+    return obs, action, decisions[0] if decisions else None
+
+
+def _place(config, aff, wanted):
+    """`needed_context` of `aff`'s relation for the outcome `wanted`, with the planner's
+    constants (as the controller asks it)."""
+    return needed_context(aff, wanted, np.zeros(2), np.array([True]),
+                          zero_eps=config.learner.zero_eps, k=2 * config.learner.k_inverse,
+                          support=config.planner.context_support,
+                          agreement=config.planner.agreement)
 
 
 @pytest.mark.parametrize("goal", [(-0.6, 0.5), (0.0, -0.7), (-0.8, -0.3)])
@@ -110,10 +140,23 @@ def test_the_same_observation_gives_the_same_action(rig):
     _, world, learner = rig
     obs = world.reset(scene=TASK.scene)
     goal = np.array(TASK.points[2])
-    push = next(a for a in learner.hierarchy if a.input == ROBOT_POSITION)
+    push = _push(learner)
     first = [learner.controller.act(obs, learner.controller.pursue(push, Binding(target=1), goal,
                                                               obs)) for _ in range(2)]
     assert first[0] is not None and np.array_equal(first[0], first[1])
+
+
+@pytest.mark.parametrize("angle", [0.0, 2.0])
+def test_a_push_is_made_from_the_line_of_the_move_whichever_way_it_goes(rig, angle):
+    """Discs push alike from either side: the place `needed_context` reads off the real
+    pushes lies behind the target on the line of the wanted move (within 1 mm), and the
+    robot's input moves along that line."""
+    config, _, learner = rig
+    u = np.array([np.cos(angle), np.sin(angle)])
+    need, x = _place(config, _push(learner), 0.06 * u)
+    across = np.array([-u[1], u[0]])
+    assert abs(need @ across) <= 1e-3 and need @ u >= 0.27  # target − robot: behind, in contact
+    assert abs(x @ across) <= 1e-3 and x @ u > 0.0
 
 
 def test_a_detour_round_a_disc_is_the_tangents_and_the_arc_between_them():
@@ -155,3 +198,100 @@ def test_a_deeper_search_runs_and_reaches_the_place_too(rig):
     final = learner.reader.entity_position(seen[-1], 0)
     assert np.linalg.norm(final - goal) <= 0.05, final
     assert len(seen) - 1 <= 4 + np.hypot(*goal) / 0.15
+
+
+def test_a_robot_without_a_turning_affordance_is_driven_as_it_is_headed():
+    """H holds `action → robot.position` alone (the robot seen at one heading, along +x):
+    the controller acts without a turn to plan, forward towards a goal ahead."""
+    room = Room()
+    t = room.moves(np.random.default_rng(2), 80, heading=0.0)
+    drive = room.affordance(t)
+    room.place("robot", [0.0, 0.0])
+    room.set("robot", Property.HEADING, [1.0, 0.0])
+    controller = room.learner.controller
+    goal = np.array([0.4, 0.0])
+    pursuit = controller.pursue(drive, Binding(), goal, room.obs)
+    action = controller.act(room.obs, pursuit)
+    assert action is not None and action.mean() > 0.5  # about full speed forward
+    assert drive.model.predict(action[None])[0] @ goal > 0
+
+
+def test_each_decision_tells_the_observer_its_movers_distance_to_its_place(rig):
+    """Pushing obj1, the observer is handed per action one gap (the push level's): the
+    robot's way to the place behind obj1 (read off the pushes here), about the straight line
+    to it (nothing in between), and the action serves that place."""
+    config, world, learner = rig
+    push, goal = _push(learner), np.array(TASK.points[2])
+    obs, action, decision = _first_decision(world, learner.controller, push, Binding(target=1),
+                                            goal)
+    assert action is not None
+    target = learner.reader.entity_position(obs, 1)
+    place, _ = _place(config, push, 0.06 * (goal - target) / np.linalg.norm(goal - target))
+    straight = np.linalg.norm(target - place - learner.reader.entity_position(obs, 0))
+    (gap,) = decision.gaps
+    assert straight - 0.02 <= gap <= straight + 0.1
+    assert decision.label == f"place robot for A{push.id}"
+
+
+@pytest.mark.parametrize("goal_x", [1.25, 0.95])
+def test_the_estimate_is_the_targets_way_in_pushes_plus_the_robots_way_to_its_place(rig, goal_x):
+    """obj1 ahead of the robot on the line of its goal, the robot facing it: the estimate
+    handed to the observer is obj1's way in the push's steps plus the robot's way to
+    contact behind obj1 in the drive's steps (each level's step: `step_quantile` of its
+    non-null outcome norms), with no turn to pay and whatever the way's length."""
+    config, world, learner = rig
+    reader, push, drive = learner.reader, _push(learner), _mover(learner)
+    q, zero = config.planner.step_quantile, config.learner.zero_eps
+    goal = np.array([goal_x, 0.0])
+    obs, _, decision = _first_decision(world, learner.controller, push, Binding(target=1), goal)
+    target, robot = reader.entity_position(obs, 1), reader.entity_position(obs, 0)
+    contact = config.world.robot_radius + TASK.scene.objects[0].radius
+    place = target - contact * (goal - target) / np.linalg.norm(goal - target)
+    expected = (np.linalg.norm(goal - target) / typical_step(push, q, zero)
+                + np.linalg.norm(place - robot) / typical_step(drive, q, zero))
+    assert decision.to_go == pytest.approx(expected, rel=1e-3)
+
+
+def test_an_exact_level_is_imagined_by_the_rooms_physics_instead_of_its_model():
+    """A drive learned facing −x (forward moves the robot −x, whatever the heading seen now)
+    sends a robot facing +x backwards to a goal ahead; with the navigation level exact
+    (`evaluation.exact`), the controller drives it forwards."""
+    room = Room()
+    drive = room.affordance(room.moves(np.random.default_rng(2), 80, heading=np.pi))
+    room.place("robot", [0.0, 0.0])
+    room.set("robot", Property.HEADING, [1.0, 0.0])
+    controller, goal = room.learner.controller, np.array([0.4, 0.0])
+    learned = controller.act(room.obs, controller.pursue(drive, Binding(), goal, room.obs))
+    with exact_levels(room.learner, load_config().world, ("navigation",)):
+        exact = controller.act(room.obs, controller.pursue(drive, Binding(), goal, room.obs))
+    assert learned.mean() < -0.5 and exact.mean() > 0.5
+
+
+def test_a_search_two_actions_deep_turns_the_robot_towards_a_goal_on_its_right(rig):
+    config, world, learner = rig
+    deeper = Controller(learner.hierarchy, learner.reader, config.learner,
+                        dataclasses.replace(config.planner, horizon=2))
+    obs = world.reset(scene=TASK.scene)
+    goal = np.array([0.0, -0.7])  # the robot faces +x: a quarter turn first, to the right
+    action = deeper.act(obs, deeper.pursue(_mover(learner), Binding(), goal, obs))
+    assert action is not None and action[0] > action[1]
+
+
+def test_a_detour_from_a_discs_rim_leaves_along_its_tangent():
+    """From a point on the rim (0.6 of the way left, 0.8 up) to beyond the disc's far side:
+    the way starts along the rim — a unit direction square to the radius."""
+    radial = np.array([-0.6, 0.8])
+    frm, to = 0.5 * radial[None], np.array([[0.9, -0.6]])
+    length, first, _ = detour(frm, to, np.zeros((1, 1, 2)), np.full((1, 1), 0.5))
+    assert length[0] > np.linalg.norm(to - frm)
+    assert np.linalg.norm(first[0]) == pytest.approx(1.0)
+    assert first[0] @ radial == pytest.approx(0.0, abs=1e-12)
+
+
+def test_the_search_tries_an_n_by_n_grid_of_commands_over_the_action_box(rig):
+    config, _, learner = rig
+    five = Controller(learner.hierarchy, learner.reader, config.learner,
+                      dataclasses.replace(config.planner, commands=5))
+    assert five.commands.shape == (24, 2)  # 5 × 5, standing still left out
+    assert {tuple(c) for c in five.commands} >= {(-1.0, -1.0), (-1.0, 1.0), (1.0, 1.0), (1.0, 0.0)}
+    assert np.abs(five.commands).max() == 1.0 and not np.any(np.all(five.commands == 0, axis=1))
