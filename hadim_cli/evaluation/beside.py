@@ -44,14 +44,10 @@ def _evaluate(conn: Connection, session: Session, tasks: tuple[str, ...]) -> Non
     """The child: evaluate and send [(task, score, points)] or ("error", message)."""
     signal.signal(signal.SIGINT, signal.SIG_IGN)
     try:
-        from hadim_cli.evaluation.runner import evaluate
-        from hadim_cli.evaluation.tasks import load_task
+        from hadim_cli.runs import evaluate_tasks
 
-        out = []
-        for name in tasks:
-            result = evaluate(session.learner, session.config.world, load_task(name))
-            out.append((name, result.score, result.to_dict()["points"]))
-        conn.send(("ok", out))
+        conn.send(("ok", [(name, result.score, result.to_dict()["points"])
+                          for name, result in evaluate_tasks(session, tasks).items()]))
     except BaseException as exc:  # the parent reports it: one line, not a child's traceback
         conn.send(("error", f"{type(exc).__name__}: {exc}"))
     finally:
