@@ -4,4 +4,4 @@ from hadim_cli.numerics import pin_kernels
 
 pin_kernels()  # before numpy loads: the same kernels, so the same runs, on every machine
 
-__version__ = "0.2.0"
+__version__ = "0.3.0"

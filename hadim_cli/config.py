@@ -298,19 +298,6 @@ class LearnerConfig:
     less than the plain fits on seeds 10–19 (docs/notes.md); the motion model's error on
     free moves hardly moved, because blocked rows come in runs of identical inputs that
     outnumber the free ones round them."""
-    free_motion: bool = True
-    """The robot's own motion affordances (primitive action → robot position or heading)
-    learn from the actions it took clear of everything: no object within contact (plus
-    `affordance.CONTACT_MARGIN`) and no LIDAR ray shorter than its radius plus that margin,
-    before and after the action. A robot pressed against a wall or an object does not move as
-    its wheels say; such rows among free moves bent the local fits (held-out error on free
-    moves: 90th percentile 3.8 cm with them, 1.0 cm without, docs/notes.md). Off: every
-    action's row."""
-    body_frame: bool = True
-    """With `relation_frames`: fit the robot's own motion affordances (primitive action →
-    robot position or heading) with the robot's heading as a context in the frame of that
-    heading, where a wheel command moves the robot the same way whichever way it faces. Off:
-    in room coordinates, where neighbours of other headings turn each prediction."""
     zero_eps: float = 0.004
     """An outcome smaller than this (in its space's units) counts as null."""
     tau_creation: float = 0.3
@@ -319,13 +306,7 @@ class LearnerConfig:
     """Competence a context change needs to be kept (paper τ_modification)."""
     context_gain: float = 0.1
     """A context change must also raise competence by at least this much (half of it for a
-    replacement, tested on one held-out split; see `context_splits`)."""
-    context_splits: int = 1
-    """Held-out splits on which a replacement of a context that falls short of half
-    `context_gain` on the first is tested again: it is made when its gain, paired split by
-    split, exceeds twice its standard error. 1: never — the default (with 5, a tool
-    affordance went over to the robot's relation mid-run on a paired gain the later data
-    reversed: `push-with-tool` 0.34 at 2000 instead of 0.60, 10 seeds; docs/algorithm.md)."""
+    replacement, none for a removal), each tested on one held-out split."""
     match_tolerance: float = 0.05
     """New data match an affordance if its competence drops by less than this."""
     context_review_every: int = 5
@@ -350,18 +331,6 @@ class LearnerConfig:
     salient_beyond: float = 0.3
     """How far (m) beyond the other object, along the line from the target, a salient goal
     lies: the target has to push that object out of its way instead of stopping at it."""
-    chain_objects: bool = True
-    """ObjectSelection for an affordance acting through a tool takes, of the pairs p_A and the
-    tool's controller accept, the (target, tool) whose chain is shortest: the robot's way to
-    the tool plus the tool's way to the target (for one object, the paper's closest object).
-    Off: the closest target, then the tool nearest it, however far the robot must go first."""
-    own_relations: bool = True
-    """A context about an entity the affordance neither acts with nor acts on (the robot's
-    relation to the target, or its heading, for a push through a tool) counts as one more
-    context: it must beat the others by `context_gain`. Such a relation predicts about as
-    well while the entity trails the affordance's input (the robot behind the tool), but the
-    planner cannot establish it through that input: held for a thousand iterations it left
-    the tool level placing the robot (docs/algorithm.md). Off: ranked by competence alone."""
     goal_budget: int = 40
     """Primitive actions one goal attempt may use."""
     subgoal_budget: int = 1
@@ -375,11 +344,6 @@ class LearnerConfig:
     """Competences the learning progress of a region is computed over."""
     interest_epsilon: float = 0.2
     """Probability of a uniform choice (of affordance, of region) instead of by interest."""
-    untried_interest: bool = False
-    """AffordanceSelection takes an affordance that has been tried on fewer goals than
-    `interest_window` (its learning progress not measured yet) as interesting as the most
-    interesting one, so every affordance H gains is practised before its interest decides.
-    Off: its map's interest (the unexplored floor, then the progress of its few goals)."""
     paper_interest: bool = False
     """The interest maps as the paper has them (§4.4 and Algorithm 1's UpdateInterestMaps):
     after every learning episode, goal babbling or random, each affordance's map records every
@@ -389,44 +353,19 @@ class LearnerConfig:
     (`interest.paper_progress`). Off: a map records goal-babbling attempts only, with the
     competence of the attempt, and a region's interest is the half-window difference
     (docs/algorithm.md, "Interest maps", for what each measured)."""
-    surface_relations: bool = True
-    """Read relative positions (target-robot, target-tool, …) between the two bodies'
-    surfaces, offset by `relation_offset`, instead of centre to centre (the paper's wording):
-    a contact then reads the same whatever the objects' sizes."""
     relation_offset: float = 0.3
-    """Length (m) a relation reads at contact when `surface_relations` is on (> 0: a contact
-    keeps its direction); about the robot's radius plus a middling object's."""
-    relation_frames: bool = True
-    """Fit the models of an affordance with a relation context (target-robot, target-tool) in
-    the frame of that relation: a push then reads the same from any bearing (the physics of
-    the room turns with the scene). Off: in room coordinates."""
+    """Relative positions (target-robot, target-tool, …) are read between the two bodies'
+    surfaces, not centre to centre as the paper words it, so that a contact reads the same
+    whatever the objects' sizes: this is the length (m) a relation reads at contact (> 0: a
+    contact keeps its direction); about the robot's radius plus a middling object's."""
     classifier_hidden: int = 32
     """Width of the two hidden layers of each visual classifier p_A."""
     classifier_steps: int = 30
     """Training steps of p_A after each learning episode that gave it examples."""
-    p_a_blocked_pushes: bool = False
-    """Also teach p_A of an affordance acting from the robot's motion (`robot.position →
-    target.position`) the objects that *stopped* the robot: touched, the robot's motion model
-    predicting a move that would have pushed them, neither moving — in every learning
-    episode, including those where nothing moved. Such rows are outside the affordance's
-    domain (its input did not change), so without this its p_A hardly ever sees a red object
-    as a negative (docs/algorithm.md, p_A). Off: not measured enough to be the default."""
-    open_contexts: bool = True
-    """Let Algorithm 2 pick contexts among every observed space of the objects an affordance
-    binds (absolute position, colour, shape as well as the relation to the robot, radius and
-    height), as the paper does (the default since 2026-11-25: no worse on twenty seeds); off:
-    the fixed list of `spaces.context_candidates` (docs/algorithm.md, "Departures from the
-    paper that remain", for what each measured)."""
     open_outputs: bool = False
     """Let the LIDAR be the output of an affordance too (`spaces.OPEN_OUTPUT_SPACES`), as the
     paper lets any space be; off: the robot's position and heading and an object's position
     (docs/algorithm.md, departures, for what opening it measured)."""
-    absorb_mismatch: bool = False
-    """An affordance keeps the rows of an update that did not match (its competence fell by
-    more than `match_tolerance`) even when no context change makes them fit. Off (the paper's
-    Algorithm 2, the default since 2026-11-25: no worse on twenty seeds): such rows are given
-    back and the affordance refitted without them (docs/algorithm.md, "Departures from the
-    paper that remain", for what each measured)."""
     paper_picks: bool = False
     """Algorithm 2's PickSpace as the paper writes it: a space is picked k times at random
     among those with a non-null outcome in the learning episode, k = their number, with
@@ -448,24 +387,6 @@ class LearnerConfig:
     that does not is given k' random context candidates (k' = their number) and takes the
     first with which it holds the data at competence ≥ τ_modification, with the data
     (`Adaptation._borrow`). Off: a match only stands for creation, nothing is added."""
-    p_a_pooled: bool = True
-    """Teach p_A of every affordance with the same output (`target.position`: every
-    object-moving affordance) the same examples: the objects any of them moved (positives),
-    those any of them was applied to in vain (or, with `p_a_refusals`, that refused the
-    robot), and the robot (negatives), one per object and label per learning episode. Whether
-    an object's position can be changed is a fact about the object, seen by whichever
-    affordance acted on it; a fixed object stops the robot or the tool, so its pushes in vain
-    are seldom rows of the pushing or the tool affordance (docs/algorithm.md, p_A). Off: each
-    affordance learns from its own rows only."""
-    p_a_refusals: bool = True
-    """With `p_a_pooled`: p_A's negatives for the object-moving affordances are the objects
-    that *refused* the robot — it touched one, its motion model (the most competent
-    controller of `robot.position` from the actions) meant to move at least half its step
-    into the object, the robot moved less than half as far as it meant, and the object did
-    not move in the environment episode — taught after every learning episode, whatever
-    moved in it. They replace the objects an affordance's own model expected to move
-    (`Adaptation._applied_in_vain`), which made pushable objects negatives after grazes and
-    backing away. Off: those (docs/algorithm.md, p_A, for what each measured)."""
 
     def validate(self) -> None:
         for name in ("sigma", "match_tolerance", "context_gain", "interest_epsilon",
@@ -477,8 +398,7 @@ class LearnerConfig:
             _check(0.0 <= value <= 1.0, f"learner.{name}", "must be in [0, 1]", value)
         for name in ("random_sequence_length", "k_forward", "k_inverse", "goal_budget",
                      "subgoal_budget", "interest_window", "classifier_hidden",
-                     "classifier_steps", "deletion_patience", "context_review_every",
-                     "context_splits"):
+                     "classifier_steps", "deletion_patience", "context_review_every"):
             value = getattr(self, name)
             _check(value >= 1, f"learner.{name}", "must be >= 1", value)
         _check(self.robust_fit >= 0, "learner.robust_fit", "must be >= 0", self.robust_fit)
@@ -492,9 +412,6 @@ class LearnerConfig:
                self.creation_rows)
         _check(self.salient_beyond >= 0, "learner.salient_beyond", "must be >= 0",
                self.salient_beyond)
-        _check(self.p_a_pooled or not self.p_a_refusals, "learner.p_a_refusals",
-               "needs learner.p_a_pooled = true (refusals are taught to every object-moving "
-               "affordance)", self.p_a_refusals)
         _check(self.paper_matching or not self.paper_match_adds, "learner.paper_match_adds",
                "needs learner.paper_matching = true (it adds the data a match with another "
                "output found)", self.paper_match_adds)
@@ -710,43 +627,58 @@ def config_from_dict(values: Mapping[str, Any]) -> Config:
     return config
 
 
-LEGACY_DEFAULTS: dict[str, dict[str, Any]] = {
-    "world": {"settle_time": 0.0},
-    "learner": {"surface_relations": False, "relation_frames": False, "context_splits": 1,
-                "p_a_pooled": False, "free_motion": False, "body_frame": False,
-                "p_a_refusals": False, "open_contexts": False, "absorb_mismatch": True,
-                "k_choices": (), "chain_objects": False,
-                "own_relations": False},
-}
-"""Keys added after runs were first stored, with the value that reproduces what a run stored
-without them did (its defaults then): a stored run restores the learner it trained (the
-controller's constants are code, and follow the installed version: `CODE_SECTIONS`)."""
-
-
-CODE_SECTIONS = ("planner", "controller")
-"""Sections of a stored run's config that hold constants of the code that turned its goals
-into actions, not of its data (D, H and the models): their keys the installed version does
-not know are dropped (a section it does not know, "controller" of the earlier search
-variant, entirely), and the installed version's constants are used."""
-
-
 def stored_config(values: Mapping[str, Any]) -> Config:
-    """The Config of a stored run: `values`, with `LEGACY_DEFAULTS` for keys it lacks and
-    without the keys of `CODE_SECTIONS` the installed version does not know."""
-    hints = typing.get_type_hints(Config)
-    filled = dict(values)
-    for section in CODE_SECTIONS:
-        if section not in hints:
-            filled.pop(section, None)
-        elif isinstance(filled.get(section), Mapping):
-            known = {f.name for f in dataclasses.fields(hints[section])}
-            filled[section] = {k: v for k, v in filled[section].items() if k in known}
-    for section, legacy in LEGACY_DEFAULTS.items():
-        table = dict(filled.get(section, {}))
-        for key, value in legacy.items():
-            table.setdefault(key, value)
-        filled[section] = table
-    return config_from_dict(filled)
+    """The Config of a stored run: `values` without the keys and tables the installed version
+    does not know (`unknown_keys`), and the installed defaults for those it lacks
+    (`missing_keys`). A stored config was validated when it was stored, so an unknown key is
+    one a later version removed, a missing one a key added since; the installed code acts in
+    their place (a run's D, H and models are data, the code that learns and acts on them is
+    the installed version's), and `runs.version_note` names both."""
+    return config_from_dict(_known(Config, values))
+
+
+def unknown_keys(values: Mapping[str, Any]) -> list[str]:
+    """The dotted keys of `values` the installed Config does not know (`stored_config`)."""
+    return _unknown(Config, values, "")
+
+
+def missing_keys(values: Mapping[str, Any]) -> list[str]:
+    """The dotted keys of the installed Config that `values` lacks: a stored run of an earlier
+    version takes the installed defaults for them (`stored_config`)."""
+    return _missing(Config, values, "")
+
+
+def _known(cls: type, values: Mapping[str, Any]) -> dict[str, Any]:
+    hints = typing.get_type_hints(cls)
+    out: dict[str, Any] = {}
+    for key, value in values.items():
+        if key not in hints:
+            continue
+        if dataclasses.is_dataclass(hints[key]) and isinstance(value, Mapping):
+            value = _known(hints[key], value)
+        out[key] = value
+    return out
+
+
+def _missing(cls: type, values: Mapping[str, Any], prefix: str) -> list[str]:
+    out: list[str] = []
+    for key, hint in typing.get_type_hints(cls).items():
+        if key not in values:
+            out.append(f"{prefix}{key}")
+        elif dataclasses.is_dataclass(hint) and isinstance(values[key], Mapping):
+            out.extend(_missing(hint, values[key], f"{prefix}{key}."))
+    return out
+
+
+def _unknown(cls: type, values: Mapping[str, Any], prefix: str) -> list[str]:
+    hints = typing.get_type_hints(cls)
+    out: list[str] = []
+    for key, value in values.items():
+        if key not in hints:
+            out.append(f"{prefix}{key}")
+        elif dataclasses.is_dataclass(hints[key]) and isinstance(value, Mapping):
+            out.extend(_unknown(hints[key], value, f"{prefix}{key}."))
+    return out
 
 
 def load_config(path: Path | None = None, overrides: Iterable[str] = ()) -> Config:

@@ -18,7 +18,7 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from hadim_cli.config import Config, stored_config
+from hadim_cli.config import Config, missing_keys, stored_config, unknown_keys
 from hadim_cli.errors import HadimError
 from hadim_store.records import (
     AffordanceEvent,
@@ -253,15 +253,24 @@ def package_versions() -> dict[str, str]:
 
 
 def version_note(run: RunRecord) -> str | None:
-    """One line when `run` was trained by another hadim version than the installed one
-    (None when the same, or unknown): a run's D, H and models are data, read as stored; the
-    controller that turns goals into actions is code, the installed version's."""
+    """One line when `run` was trained by another hadim version than the installed one, or
+    its config holds keys the installed version no longer has (None otherwise): a run's D, H
+    and models are data, read as stored; the code that learns from them and turns goals into
+    actions is the installed version's, and a removed key is ignored (`stored_config`)."""
     trained = (run.versions or {}).get("hadim")
     installed = package_versions()["hadim"]
-    if trained in (None, "unknown") or trained == installed:
+    other = trained not in (None, "unknown", installed)
+    gone, new = unknown_keys(run.config), missing_keys(run.config)
+    if not other and not gone and not new:
         return None
-    return (f"note: run {run.name} was trained with hadim {trained}; hadim {installed} acts "
-            f"for it (its D, H and models as stored, the installed controller)")
+    what = f"was trained with hadim {trained}" if other else f"is run by hadim {installed}"
+    note = (f"note: run {run.name} {what}; hadim {installed} learns and acts for it (its D, "
+            f"H and models as stored, the installed code)")
+    if gone:
+        note += f"; keys it no longer has, ignored: {', '.join(gone)}"
+    if new:
+        note += f"; keys it lacks, at the installed defaults: {', '.join(new)}"
+    return note
 
 
 def owner_id() -> str:

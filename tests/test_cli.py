@@ -236,7 +236,7 @@ def test_affordances_now_at_and_timeline(runner, trained, tmp_path):
     assert now and {"id", "input", "output", "context", "frame", "created_at", "competence",
                     "data", "interest", "accepts"} <= now[0].keys()
     for aff in now:  # a frame is one of the affordance's own relation contexts
-        # A relation's frame, or the heading's for the robot's own motion (`body_frame`).
+        # A relation's frame, or the heading's for the robot's own motion.
         assert aff["frame"] is None or (aff["frame"] in aff["context"] and (
             "-" in aff["frame"] or aff["frame"] == "robot.heading"))
     events = json.loads(ok(runner, "affordances", "run-1", "--timeline", "--json",

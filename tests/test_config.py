@@ -11,8 +11,10 @@ from hadim_cli.config import (
     config_from_dict,
     field_docs,
     load_config,
+    missing_keys,
     parse_override,
     stored_config,
+    unknown_keys,
     with_overrides,
 )
 from hadim_cli.errors import ConfigError
@@ -93,60 +95,44 @@ def test_round_trip_through_dict():
     assert config.world == dataclasses.replace(WorldConfig(), n_green=2)
 
 
-def test_a_stored_run_without_a_newer_key_keeps_the_behaviour_it_was_trained_with():
-    """Runs stored before `surface_relations` existed read relations centre to centre: a
-    stored config lacking the key restores with the legacy value, one holding it keeps it."""
-    values = Config().to_dict()
-    for key in ("surface_relations", "relation_frames"):
-        assert values["learner"][key] is True
-        del values["learner"][key]
-    legacy = stored_config(values).learner
-    assert legacy.surface_relations is False and legacy.relation_frames is False
-    assert stored_config(Config().to_dict()) == Config()
-
-
-def test_a_run_stored_before_the_papers_rules_were_the_default_keeps_its_own():
-    """`open_contexts` and `absorb_mismatch` became the paper's (on, off) on 2026-11-25: a
-    stored config lacking them restores the rules it was trained with (closed, absorbing);
-    one holding them keeps what it holds."""
-    values = Config().to_dict()
-    assert (values["learner"]["open_contexts"], values["learner"]["absorb_mismatch"]) == (
-        True, False)
-    stored = stored_config(values).learner
-    assert (stored.open_contexts, stored.absorb_mismatch) == (True, False)
-    for key in ("open_contexts", "absorb_mismatch"):
-        del values["learner"][key]
-    legacy = stored_config(values).learner
-    assert (legacy.open_contexts, legacy.absorb_mismatch) == (False, True)
-
-
-def test_a_run_stored_before_tools_were_chosen_by_their_chain_keeps_its_objects():
-    """`learner.chain_objects` (on since 2026-11-26): a stored config lacking it restores the
-    ObjectSelection it trained with (the closest target, then the tool nearest it); one
-    holding it keeps it. `learner.own_relations` (on since 2026-11-28) likewise: contexts
-    ranked by competence alone."""
-    for key in ("chain_objects", "own_relations"):
-        values = Config().to_dict()
-        assert values["learner"][key] is True
-        assert getattr(stored_config(values).learner, key) is True
-        del values["learner"][key]
-        assert getattr(stored_config(values).learner, key) is False
-
-
-def test_a_stored_run_s_controller_keys_are_the_installed_code_s():
-    """A run stored by a version with other controller constants (the rule-based planner's
-    `[planner]` keys, the search variant's `[controller]` section) restores with the
-    installed controller's; its learner's keys are kept as stored."""
+def test_a_stored_run_s_removed_keys_are_ignored_and_named():
+    """A run stored by a version with other keys (the rule-based planner's `[planner]` keys,
+    the search variant's `[controller]` section, learner switches since removed) restores with
+    the installed code in their place: the keys it still has are kept as stored, the others
+    dropped and named (`unknown_keys`, which the version note prints)."""
     values = Config().to_dict()
     values["planner"] = {"convoy": True, "navigation": True, "route_beam": 24, "beam": 5}
     values["controller"] = {"kind": "search", "stall": 8}
-    values["learner"]["goal_budget"] = 33
+    values["learner"].update(goal_budget=33, surface_relations=False, p_a_pooled=False)
+    values["world"]["arm"]["elbow"] = 1
     config = stored_config(values)
     assert config.planner == dataclasses.replace(Config().planner, beam=5)
-    assert config.learner.goal_budget == 33
-    values["learner"]["no_such_key"] = 1
-    with pytest.raises(ConfigError, match="learner.no_such_key"):
-        stored_config(values)
+    assert config.learner == dataclasses.replace(Config().learner, goal_budget=33)
+    assert config.world == Config().world
+    assert unknown_keys(values) == [
+        "world.arm.elbow", "learner.surface_relations", "learner.p_a_pooled", "planner.convoy",
+        "planner.navigation", "planner.route_beam", "controller"]
+    assert unknown_keys(Config().to_dict()) == []
+    assert stored_config(Config().to_dict()) == Config()
+    assert missing_keys(Config().to_dict()) == []
+    del values["learner"]["k_choices"], values["world"]["arm"]["link_mass"]
+    assert missing_keys(values) == [
+        "world.arm.link_mass", "learner.k_choices", "planner.commands", "planner.horizon",
+        "planner.clearance", "planner.step_quantile", "planner.context_support",
+        "planner.agreement"]
+    assert stored_config(values).learner.k_choices == Config().learner.k_choices
+
+
+@pytest.mark.parametrize("override", ["learner.surface_relations=false",
+                                      "learner.context_splits=5", "planner.convoy=true"])
+def test_a_removed_key_given_by_a_user_is_refused(override):
+    """A user's config or `--set` is read as the installed version's: a key it no longer has
+    is an error naming it (only a stored run's are dropped)."""
+    key = override.split("=")[0]
+    with pytest.raises(ConfigError, match=key.replace(".", r"\.")):
+        load_config(overrides=[override])
+    with pytest.raises(ConfigError, match=key.replace(".", r"\.")):
+        with_overrides(Config(), [override])
 
 
 def test_missing_or_broken_file(tmp_path):

@@ -2,7 +2,7 @@
 one in a config file) is one `error:` line naming it, exit 2, nothing stored; `hadim eval
 RUN --exact LEVEL` imagines levels by the room's physics as a diagnostic that is not stored;
 an unknown level is one `error:` line; a run of another hadim version is acted for by the
-installed code, which says so in one line; a tool that starts off the robot–target line, on
+installed code, which says so in one line, naming the keys it ignores or fills in; a tool that starts off the robot–target line, on
 a scene nothing was decided on, pushes the target."""
 
 from __future__ import annotations
@@ -51,6 +51,16 @@ def _evaluations(store: Path) -> int:
 
     with open_store(str(store), create=False, writes=False) as st:
         return len(st.evaluations("run-1"))
+
+
+@pytest.mark.parametrize("key", ["learner.surface_relations", "learner.p_a_pooled",
+                                 "learner.context_splits"])
+def test_a_removed_learner_key_is_one_error_line_and_nothing_is_stored(trained, key):
+    before = _runs(trained)
+    result = invoke("train", "--iterations", 50, *SMALL, "--set", f"{key}=1", "--store",
+                    trained)
+    _one_error(result, key)
+    assert _runs(trained) == before
 
 
 @pytest.mark.parametrize("key", ["convoy", "navigation", "route_beam", "max_depth"])
@@ -121,6 +131,35 @@ def test_a_run_of_another_version_is_acted_for_by_the_installed_code_in_one_line
     _trained_by(store, _installed())
     again = invoke("eval", "run-1", "--task", "move-robot", "--store", store)
     assert again.exit_code == 0 and "trained with" not in again.stderr
+
+
+def test_a_stored_run_s_removed_and_missing_keys_are_named_in_the_one_line(trained, tmp_path):
+    """A run stored with a key the installed version removed (a learner switch) and without
+    one it added: evaluated and resumed by the installed code, which names both in its one
+    note; the run itself is left as stored."""
+    import shutil
+    import sqlite3
+
+    store = tmp_path / "copy.sqlite"
+    shutil.copy(trained, store)
+    with sqlite3.connect(store) as db:
+        (text,) = db.execute("SELECT config_json FROM runs WHERE name = 'run-1'").fetchone()
+        config = json.loads(text)
+        config["learner"]["surface_relations"] = False
+        del config["planner"]["agreement"]
+        db.execute("UPDATE runs SET config_json = ? WHERE name = 'run-1'",
+                   (json.dumps(config),))
+    for command in (("eval", "run-1", "--task", "move-robot"),
+                    ("resume", "run-1", "--iterations", 175)):
+        result = invoke(*command, "--store", store)
+        assert result.exit_code == 0, result.stderr
+        notes = [line for line in result.stderr.splitlines() if line.startswith("note:")]
+        assert len(notes) == 1, result.stderr
+        assert "ignored: learner.surface_relations" in notes[0]
+        assert "installed defaults: planner.agreement" in notes[0]
+    with sqlite3.connect(store) as db:
+        (text,) = db.execute("SELECT config_json FROM runs WHERE name = 'run-1'").fetchone()
+    assert json.loads(text) == config
 
 
 def _installed() -> str:

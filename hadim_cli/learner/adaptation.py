@@ -5,15 +5,14 @@ affordance predicting that space takes the episode's rows; if they lower its com
 than `match_tolerance` (they do not *match*), context changes are tried — adding, replacing or
 removing one context space among every observed space of the bound entities — and the best is
 kept when its competence reaches τ_modification and improves by `context_gain` (a context
-about an entity the affordance neither acts with nor on counts as one more context,
-`own_relations`); rows that no change makes fit are given back (the paper's rule;
-`absorb_mismatch` keeps them, as runs stored before 2026-11-25 did). Then new affordances are
+about an entity the affordance neither acts with nor on counts as one more context); rows that
+no change makes fit are given back (the paper's rule). Then new affordances are
 tried for the space with every candidate input (A ∪ Ω_controllable) not yet used for it, with
 no context or the best single context (kept only if it gains `context_gain` over none); the
 best reaching τ_creation joins H.
-p_A of the object-moving affordances is taught, pooled, the objects that moved (positives) and
-the robot and the objects that refused it (negatives, `_refused`); with `p_a_refusals` off,
-the objects an affordance was applied to in vain (`_applied_in_vain`).
+p_A of every affordance with the same output is taught the same examples (pooled): the
+objects that moved (positives) and the robot and, for the object-moving affordances, the
+objects that refused the robot (negatives, `_refused`).
 
 Three switches give the rest of the paper's loop (off by default, docs/algorithm.md for what
 they measured):
@@ -80,11 +79,11 @@ def own_entities(inp: RoleSpace, out: RoleSpace) -> frozenset[Role]:
 
 def foreign_penalty(inp: RoleSpace, out: RoleSpace, contexts: tuple[RoleSpace, ...],
                     config: LearnerConfig) -> float:
-    """With `own_relations`, `context_gain` when a context is about an entity the affordance
-    neither acts with nor acts on (the robot, for a push through a tool): bringing in another
-    entity counts as one more context."""
-    if not config.own_relations:
-        return 0.0
+    """`context_gain` when a context is about an entity the affordance neither acts with nor
+    acts on (the robot's relation to the target, or its heading, for a push through a tool):
+    bringing in another entity counts as one more context. Such a relation predicts about as
+    well while the entity trails the affordance's input (the robot behind the tool), but the
+    controller cannot establish it through that input (docs/algorithm.md)."""
     own = own_entities(inp, out)
     return config.context_gain if any(c.roles - own for c in contexts) else 0.0
 
@@ -111,8 +110,7 @@ class Adaptation:
     def context_candidates(self, roles: frozenset[Role]) -> tuple[RoleSpace, ...]:
         """`spaces.context_candidates` of `roles`, with the properties this world's actor
         has."""
-        return context_candidates(roles, self.fitter.reader.actor_contexts,
-                                  open_all=self.config.open_contexts)
+        return context_candidates(roles, self.fitter.reader.actor_contexts)
 
     def non_null_spaces(self, t: np.ndarray) -> list[RoleSpace]:
         outputs = OPEN_OUTPUT_SPACES if self.config.open_outputs else OUTPUT_SPACES
@@ -143,31 +141,18 @@ class Adaptation:
             if space in adapted:
                 continue  # (paper picks) drawn again: its data are in its affordances already
             adapted.add(space)
-            if self.config.p_a_pooled:
-                self._teach_pooled(self.h.with_output(space), t, rng)
+            self._teach_pooled(self.h.with_output(space), t, rng)
             for aff in self.h.with_output(space):
                 self._update(aff, t, iteration, rng)
             if self.config.paper_matching and self._explained_elsewhere(space, t, iteration,
                                                                         rng):
                 continue  # the paper creates an affordance only when none matched
             self._try_create(space, iteration, episode, rng)
-        if self.config.p_a_refusals and OBJECT_POSITION not in adapted:
+        if OBJECT_POSITION not in adapted:
             # A push into a fixed object moves nothing, yet p_A has something to learn from it.
             self._teach_pooled(self.h.with_output(OBJECT_POSITION), t, rng)
-        if self.config.p_a_blocked_pushes:
-            # Driving into a fixed object moves nothing: no space is non-null, no affordance is
-            # updated, and yet p_A has something to learn from it.
-            for aff in self.h:
-                if aff.output not in spaces:
-                    self._teach_blocked(aff, t, rng)
         self._delete_false(iteration)
         return self.h.events[start:]
-
-    def _teach_blocked(self, aff: Affordance, t: np.ndarray, rng: np.random.Generator) -> None:
-        blocked = self._blocked_in_vain(aff, t)
-        if blocked is not None and len(blocked):
-            none = self.fitter.candidate_rows(aff.input, aff.output, t[:0])
-            self._train_classifier(aff, none, rng, blocked)
 
     # ------------------------------------------------------------------ existing affordances
     def _explained_elsewhere(self, space: RoleSpace, t: np.ndarray, iteration: int,
@@ -292,8 +277,6 @@ class Adaptation:
         sample = f.candidate_rows(aff.input, aff.output, t)
         if len(sample.rows) == 0:
             return
-        if not self.config.p_a_pooled:
-            self._train_classifier(aff, sample, rng, self._blocked_in_vain(aff, t))
         rows = f.select_rows(sample, rng, self._accept_mask(aff, sample))
         if len(rows) == 0:
             return
@@ -306,8 +289,7 @@ class Adaptation:
         review = len(aff.history) % self.config.context_review_every == 0
         if not matched or review:
             self._adapt_context(aff, iteration, rng)
-        if not self.config.absorb_mismatch \
-                and aff.competence < before - self.config.match_tolerance:
+        if aff.competence < before - self.config.match_tolerance:
             # The paper: data no context makes fit are not this affordance's.
             aff.rows = old_rows
             aff.model = f.fit(aff.input, aff.output, aff.contexts, old_rows)
@@ -368,10 +350,7 @@ class Adaptation:
              for value, kind, contexts, detail in scored),
             key=lambda option: option[0])
         if margin < baseline - penalty(aff.contexts):
-            found = self._replacement_beyond_noise(aff, rows, baseline, scored, rng)
-            if found is None:
-                return
-            value, kind, contexts, detail = found
+            return
         if value < cfg.tau_modification:
             return
         aff.contexts = tuple(contexts)
@@ -379,41 +358,11 @@ class Adaptation:
         aff.competence = f.competence(aff.model, rng)
         self.h.record(aff, kind, iteration, **detail)
 
-    def _replacement_beyond_noise(
-            self, aff: Affordance, rows: Rows, baseline: float,
-            scored: list[tuple[float, EventKind, tuple[RoleSpace, ...], dict[str, str]]],
-            rng: np.random.Generator
-    ) -> tuple[float, EventKind, tuple[RoleSpace, ...], dict[str, str]] | None:
-        """The best replacement of one context by another (as many contexts as now) among the
-        `scored` options, when it beats the current contexts on the first split but not by
-        half of `context_gain`, if its gain holds on `context_splits` held-out splits:
-        paired split by split, the mean gain exceeds twice its standard error. The fixed
-        margin is far above the noise of a paired gain (~0.002 on 400 rows), and kept a tool
-        affordance created on scarce data with the robot's relation to the target, where its
-        relation to the tool predicts better on every split (0.030 ± 0.002)."""
-        f, cfg = self.fitter, self.config
-        same = [option for option in scored
-                if option[1] is EventKind.CONTEXT_REPLACED
-                and len(option[2]) == len(aff.contexts) and option[0] > baseline]
-        if cfg.context_splits < 2 or not same:
-            return None
-        value, kind, contexts, detail = max(same, key=lambda option: option[0])
-        gains = [value - baseline]
-        for _ in range(cfg.context_splits - 1):
-            split = int(rng.integers(2**63 - 1))
-            gains.append(f.trial(aff.input, aff.output, contexts, rows,
-                                 np.random.default_rng(split))
-                         - f.trial(aff.input, aff.output, aff.contexts, rows,
-                                   np.random.default_rng(split)))
-        g = np.asarray(gains)
-        if g.mean() <= 2.0 * g.std(ddof=1) / np.sqrt(g.size):
-            return None
-        return value, kind, contexts, detail
-
-    def _examples(self, aff: Affordance, sample: Sample,
-                  blocked: Rows | None = None) -> tuple[Rows, np.ndarray]:
+    def _examples(self, aff: Affordance, sample: Sample) -> tuple[Rows, np.ndarray]:
         """p_A's examples from `aff`'s rows: the rows and their labels. Positives: targets
-        that moved. Negatives: targets A was applied to that did not respond (and `blocked`).
+        that moved. Negatives: for an object-moving affordance none here (they are the objects
+        that refused the robot, `_refused`); for another, targets it was applied to that did
+        not respond.
 
         Applied to means touched by the actor (the robot, or the tool for a tool affordance)
         before an action the model predicts to move it clearly. The model's errors (the robot
@@ -422,22 +371,18 @@ class Adaptation:
         no negative of it: within an episode its properties are the same.
         """
         moved = self.fitter.nonzero(sample.y)
-        if self.config.p_a_refusals and aff.output == OBJECT_POSITION:
+        if aff.output == OBJECT_POSITION:
             negative = np.zeros_like(moved)  # the negatives are `_refused`'s
         else:
             negative = self._applied_in_vain(aff, sample, moved)
         pick = moved | negative
         rows = sample.rows.take(np.flatnonzero(pick))
-        labels = moved[pick]
-        if blocked is not None and len(blocked):
-            rows = rows.concat(blocked)
-            labels = np.concatenate([labels, np.zeros(len(blocked), dtype=bool)])
-        return rows, labels
+        return rows, moved[pick]
 
     def _teach_pooled(self, affs: list[Affordance], t: np.ndarray,
                       rng: np.random.Generator) -> None:
-        """With `p_a_pooled`: p_A of every affordance in `affs` (one output) learns the
-        examples of all of them, and with `p_a_refusals` the objects that refused the robot.
+        """p_A of every affordance in `affs` (one output) learns the examples of all of them,
+        and for the object-moving ones the objects that refused the robot (`_refused`).
         Whether an object's position can be changed is the object's (docs/algorithm.md, p_A):
         a fixed object stops the robot, so it is seldom a row of the affordance acting from the
         robot's position, yet the one acting from the actions sees it refuse to move."""
@@ -447,9 +392,9 @@ class Adaptation:
             sample = self.fitter.candidate_rows(aff.input, aff.output, t)
             if len(sample.rows) == 0:
                 continue
-            r, y = self._examples(aff, sample, self._blocked_in_vain(aff, t))
+            r, y = self._examples(aff, sample)
             rows, labels = rows.concat(r), np.concatenate([labels, y])
-        if self.config.p_a_refusals and any(a.output == OBJECT_POSITION for a in affs):
+        if any(a.output == OBJECT_POSITION for a in affs):
             refused = self._refused(t)
             rows = rows.concat(refused)
             labels = np.concatenate([labels, np.zeros(len(refused), dtype=bool)])
@@ -457,14 +402,6 @@ class Adaptation:
             return
         for aff in affs:
             self._teach(aff, rows, labels, rng)
-
-    def _train_classifier(self, aff: Affordance, sample: Sample, rng: np.random.Generator,
-                          blocked: Rows | None = None) -> None:
-        """p_A of `aff` learns the examples of its own rows (`_examples`)."""
-        if aff.classifier is None:
-            return
-        rows, labels = self._examples(aff, sample, blocked)
-        self._teach(aff, rows, labels, rng)
 
     def _teach(self, aff: Affordance, rows: Rows, labels: np.ndarray,
                rng: np.random.Generator) -> None:
@@ -513,7 +450,7 @@ class Adaptation:
         return negative
 
     def _refused(self, t: np.ndarray) -> Rows:
-        """With `p_a_refusals`, the objects that refused the robot at iterations `t`: the robot
+        """The objects that refused the robot at iterations `t`: the robot
         touched the object before the action, its motion model (the most competent controller
         of its position from the actions) meant to carry it at least half its step into the
         object, the robot moved less than half as far as it meant (it was stopped), and the
@@ -547,42 +484,6 @@ class Adaptation:
             return rows
         episode = np.arange(d.episode_start(int(rows.t.min())), int(t.max()) + 1, dtype=np.int64)
         seen, changed = f.changed(OBJECT_POSITION, episode)
-        still = ~np.isin(rows.target, np.unique(seen.target[changed]))
-        return rows.take(np.flatnonzero(still))
-
-    def _blocked_in_vain(self, aff: Affordance, t: np.ndarray) -> Rows | None:
-        """With `p_a_blocked_pushes`, rows of iterations `t` where an affordance acting from
-        the robot's motion was applied in vain but its input did not change: the robot touched
-        the target before the action, its motion model (the most competent controller of the
-        input from primitive actions) predicted a move with which `aff` predicts a clear push,
-        and neither the robot nor the target moved — the target stopped the robot — and the
-        target did not move at any time of the environment episode so far."""
-        f = self.fitter
-        if not self.config.p_a_blocked_pushes or aff.input.role is not Role.ROBOT \
-                or aff.has_tool or aff.classifier is None or aff.model.n < 3:
-            return None
-        movers = [a for a in self.h.controllers(aff.input) if a.input.role is Role.ACTION]
-        if not movers:
-            return None
-        rows = f.bindings(aff.input.roles | aff.output.roles, t)
-        s = f.values(aff.input, aff.output, aff.contexts, rows)
-        keep = ~f.nonzero(s.x) & ~f.nonzero(s.y) & f.touching(rows, Role.ROBOT, after=False)
-        idx = np.flatnonzero(keep)
-        if idx.size == 0:
-            return None
-        rows, s = rows.take(idx), s.take(idx)
-        mover = movers[0]
-        m = f.values(mover.input, mover.output, mover.contexts, rows)
-        intended = mover.model.predict(m.x, m.c if m.c.shape[1] else None)
-        predicted = np.linalg.norm(aff.model.predict(intended, s.c if s.c.shape[1] else None),
-                                   axis=1)
-        clear = predicted > max(0.25 * typical_step(aff), 2 * self.config.zero_eps)
-        rows = rows.take(np.flatnonzero(clear))
-        if len(rows) == 0:
-            return None
-        episode = np.arange(f.dataset.episode_start(int(rows.t.min())), int(rows.t.max()) + 1,
-                            dtype=np.int64)
-        seen, changed = f.changed(aff.output, episode)
         still = ~np.isin(rows.target, np.unique(seen.target[changed]))
         return rows.take(np.flatnonzero(still))
 

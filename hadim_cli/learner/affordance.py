@@ -176,7 +176,7 @@ class Fitter:
         sample = self.values(inp, out, (), rows)
         if inp is not ACTION:
             sample = sample.take(np.flatnonzero(self.nonzero(sample.x)))
-        if inp is ACTION and out.role is Role.ROBOT and self.config.free_motion:
+        if inp is ACTION and out.role is Role.ROBOT:
             sample = sample.take(np.flatnonzero(self.moved_clear(sample.rows)))
         if Role.TOOL in roles:
             # Through a tool means not by the robot's own body: a target the robot touches is
@@ -201,7 +201,9 @@ class Fitter:
         return sample
 
     def moved_clear(self, rows: Rows) -> np.ndarray:
-        """Rows whose action the actor took clear of everything (`LearnerConfig.free_motion`):
+        """Rows whose action the actor took clear of everything (the actor's own motion is
+        learnt from these only: pressed against a wall or an object it does not move as its
+        commands say, and such rows bent the local fits round free moves):
         no object within contact plus `CONTACT_MARGIN` before or after the action, and, where
         the actor has a LIDAR, no ray (walls, objects) shorter than its radius plus that
         margin. An actor without one (the arm's effector) is judged by the objects alone: what
@@ -290,8 +292,7 @@ class Fitter:
     def new_model(self, inp: RoleSpace, out: RoleSpace,
                   contexts: tuple[RoleSpace, ...], trial: bool = False) -> Model:
         """An empty model of (inp → out | contexts): in the frame of its relation context when
-        `relation_frames` is on and it has one, or of the robot's heading (`body_frame`)
-        (`relation_frame`)."""
+        it has one, or of the robot's heading (`relation_frame`)."""
         dim = self.reader.dim
         low, high = self.reader.action_box() if inp is ACTION else (None, None)
         dims = (dim(inp), dim(out), [dim(c) for c in contexts])
@@ -300,8 +301,7 @@ class Fitter:
                   # A trial model is scored once and dropped: it keeps `k_forward`, as every
                   # trial it is compared with (choosing cost 2.5x the learning time).
                   "k_choices": () if trial else self.config.k_choices}
-        frame = (relation_frame(inp, out, contexts, body=self.config.body_frame)
-                 if self.config.relation_frames else None)
+        frame = relation_frame(inp, out, contexts)
         if frame is not None:
             return FramedModel(*dims, frame, **params)
         return LocalLinearModel(*dims, **params)

@@ -92,8 +92,7 @@ class Learner:
         self.config = config
         self.layout = layout
         self.actions = actions
-        self.reader = SpaceReader(
-            layout, config.relation_offset if config.surface_relations else None, actions)
+        self.reader = SpaceReader(layout, config.relation_offset, actions)
         self.dataset = Dataset(layout.size, actions.dim)
         self.hierarchy = Hierarchy()
         self.fitter = Fitter(self.dataset, self.reader, config)
@@ -130,8 +129,10 @@ class Learner:
         return best
 
     def select_binding(self, aff: Affordance, obs: np.ndarray) -> Binding | None:
-        """ObjectSelection: the closest object p_A accepts; through a tool, the pair whose
-        chain is shortest (`chain_objects`), else the tool nearest that object."""
+        """ObjectSelection: the closest object p_A accepts; through a tool, of the pairs p_A
+        and the tool's controller accept, the (target, tool) whose chain is shortest — the
+        robot's way to the tool plus the tool's way to the target (for one object, the
+        paper's closest object)."""
         if not aff.has_target:
             return Binding()
         targets = self.accepted_objects(aff, obs)
@@ -142,18 +143,12 @@ class Learner:
         movers = self.hierarchy.controllers(aff.input)
         if not movers:
             return None
-        tools = self.accepted_objects(movers[0], obs)
-        if self.config.chain_objects:
-            return self._shortest_chain(targets, tools, obs)
-        target = self.closest(targets, obs)
-        # The tool: the object nearest the target among those the mover can move.
-        tool = self.closest(tools, obs, exclude=target, to=target)
-        return Binding(target=target, tool=tool) if tool >= 0 else None
+        return self._shortest_chain(targets, self.accepted_objects(movers[0], obs), obs)
 
     def _shortest_chain(self, targets: np.ndarray, tools: np.ndarray, obs: np.ndarray
                         ) -> Binding | None:
         """The (target, tool) pair whose chain is shortest: the robot's way to the tool plus
-        the tool's way to the target (`chain_objects`); None when no two objects pair."""
+        the tool's way to the target; None when no two objects pair."""
         where = {int(e): self.reader.entity_position(obs, int(e))
                  for e in np.union1d(targets, tools)}
         robot = self.reader.entity_position(obs, 0)
@@ -234,13 +229,6 @@ class Learner:
         (uniformly with probability `interest_epsilon`)."""
         affordances = list(self.hierarchy)
         interests = [a.interest.interest for a in affordances]
-        if self.config.untried_interest:
-            # An affordance whose progress is not measured yet (fewer goals tried than the
-            # window) counts as the most interesting: a new affordance (the tool, found last)
-            # was otherwise tried on 2-11 goals in a whole run, at the noise floor's odds.
-            top = max(interests)
-            interests = [top if a.interest.n_goals < self.config.interest_window else i
-                         for a, i in zip(affordances, interests, strict=True)]
         return affordances[select_index(interests, rng, self.config.interest_epsilon)]
 
     def _goal_babbling(self, actuator: Actuator, rng: np.random.Generator) -> Explored:

@@ -75,22 +75,22 @@ def turns_with_scene(space: RoleSpace) -> bool:
     return space.relative_to is not None or space.prop is Property.HEADING
 
 
-def relation_frame(inp: RoleSpace, out: RoleSpace, contexts: Sequence[RoleSpace],
-                   body: bool = False) -> Frame | None:
+def relation_frame(inp: RoleSpace, out: RoleSpace,
+                   contexts: Sequence[RoleSpace]) -> Frame | None:
     """The frame of an affordance: that of its context relating the output's owner to the
     input's (`target-tool` for a tool pushing the target), else of the first relating the
     output's owner to anything; None without such a relation, or when the output does not
-    turn. With `body` (`LearnerConfig.body_frame`), the robot's own motion (primitive action
-    → robot position or heading) with the robot's heading as a context is framed by that
-    heading: a wheel command moves the robot the same way in its own frame whatever way it
-    faces (up to its speed before the command, which no observation holds)."""
+    turn. The robot's own motion (primitive action → robot position or heading) with the
+    robot's heading as a context is framed by that heading: a wheel command moves the robot
+    the same way in its own frame whatever way it faces (up to its speed before the command,
+    which no observation holds)."""
     if not is_vector(out):
         return None
     heading = [i for i, c in enumerate(contexts)
                if c.role is Role.ROBOT and c.prop is Property.HEADING and c.relative_to is None]
     relations = [i for i, c in enumerate(contexts)
                  if c.relative_to is not None and c.role is out.role]
-    if body and inp is ACTION and out.role is Role.ROBOT and heading:
+    if inp is ACTION and out.role is Role.ROBOT and heading:
         axis = heading[0]
     elif relations:
         direct = [i for i in relations if contexts[i].relative_to is inp.role]

@@ -100,20 +100,20 @@ position is `target.position` under another binding; a relative position's chang
 read raw, which `Fitter.values` does not do for outputs.)"""
 
 
-OPEN_OBJECT_PROPERTIES: tuple[Property, ...] = (
+OBJECT_PROPERTIES: tuple[Property, ...] = (
     Property.POSITION, Property.RADIUS, Property.HEIGHT, Property.COLOR, Property.SHAPE)
 """An object's observed spaces (its position relative to the robot comes as `role-robot`)."""
 
 
-def context_candidates(roles: frozenset[Role], actor: tuple[Property, ...], *,
-                       open_all: bool = False) -> tuple[RoleSpace, ...]:
-    """Every context space that can be read for an affordance involving `roles`: the actor's
-    properties `actor` (`actor_contexts`: the rover's heading, LIDAR and position); each
-    bound object's position relative to the actor, radius and height; the target's position
-    relative to the tool. With `open_all` (the paper's Algorithm 2, `learner.open_contexts`),
-    every observed space of the bound objects as well: absolute position, colour, shape."""
+def context_candidates(roles: frozenset[Role],
+                       actor: tuple[Property, ...]) -> tuple[RoleSpace, ...]:
+    """Every context space that can be read for an affordance involving `roles`, as the
+    paper's Algorithm 2 has them: the actor's properties `actor` (`actor_contexts`: the
+    rover's heading, LIDAR and position); every observed space of each bound object (absolute
+    position, radius, height, colour, shape) and its position relative to the actor; the
+    target's position relative to the tool."""
     out: list[RoleSpace] = [RoleSpace(Role.ROBOT, prop) for prop in actor]
-    props = OPEN_OBJECT_PROPERTIES if open_all else (Property.RADIUS, Property.HEIGHT)
+    props = OBJECT_PROPERTIES
     for role in (Role.TARGET, Role.TOOL):
         if role not in roles:
             continue

@@ -66,13 +66,13 @@ def test_every_combination_learns_stores_resumes_and_evaluates(tmp_path, index, 
     assert [p.target for p in result.points] == list(two.points)
 
 
-def test_a_baseline_stored_before_a_world_key_existed_keeps_the_world_it_trained_in():
-    """A stored baseline's world lacks the keys added after it (e.g. `settle_time`): it reads
-    them as they were then (`LEGACY_DEFAULTS`), not at today's defaults."""
+def test_a_baseline_stored_before_a_world_key_existed_reads_it_at_the_installed_default():
+    """A stored baseline's world lacks the keys added after it (e.g. `settle_time`): the
+    installed version's defaults stand for them (`config.stored_config`)."""
     from hadim_cli.baselines.config import read_config
 
     cfg = make_config("dqn", "push-object", "sparse", "discrete", 100, 0, WorldConfig())
     assert cfg.world_config == WorldConfig()
     stored = cfg.to_dict()
     del stored["baseline"]["world"]["settle_time"]
-    assert read_config(stored).world_config.settle_time == 0.0
+    assert read_config(stored).world_config.settle_time == WorldConfig().settle_time

@@ -80,7 +80,7 @@ class Room:
         """`n` actions of a differential drive: forward by STEP·mean(action) along the heading,
         turning by 0.3·(right − left). The heading is random per row unless given; with
         `noise`, the displacement is random instead (nothing to learn). The robot stays clear
-        of the parked objects (a free move: `LearnerConfig.free_motion`). Returns iterations."""
+        of the parked objects (a free move: `Fitter.moved_clear`). Returns iterations."""
         start = len(self.dataset)
         for _ in range(n):
             theta = rng.uniform(-np.pi, np.pi) if heading is None else heading

@@ -165,9 +165,8 @@ def test_which_relation_frames_an_affordance() -> None:
     # Without it, the target's other relation; the heading turns, the radius does not.
     assert relation_frame(tool, target, (heading, radius, target_robot)) == \
         Frame(2, True, True, (0,))
-    # A primitive action does not turn; moving the robot itself has no relation to frame it.
+    # A primitive action does not turn.
     assert relation_frame(ACTION, target, (target_robot,)) == Frame(0, False, True, ())
-    assert relation_frame(ACTION, robot, (heading,)) is None
     assert relation_frame(robot, target, (radius,)) is None
 
 
@@ -216,20 +215,18 @@ def test_the_rows_with_an_effect_are_turned_as_all_rows_are(cls, turn) -> None:
         assert got.tobytes() == np.ascontiguousarray(want).tobytes()
 
 
-def test_the_robot_s_own_motion_is_framed_by_its_heading_only_when_asked() -> None:
+def test_the_robot_s_own_motion_is_framed_by_its_heading() -> None:
     heading = RoleSpace(Role.ROBOT, Property.HEADING)
     robot = RoleSpace(Role.ROBOT, Property.POSITION)
     target = RoleSpace(Role.TARGET, Property.POSITION)
     lidar = RoleSpace(Role.ROBOT, Property.LIDAR)
-    assert relation_frame(ACTION, robot, (heading,), body=True) == Frame(0, False, True, ())
-    assert relation_frame(ACTION, heading, (lidar, heading), body=True) == \
-        Frame(1, False, True, ())
-    assert relation_frame(ACTION, robot, (heading,)) is None
+    assert relation_frame(ACTION, robot, (heading,)) == Frame(0, False, True, ())
+    assert relation_frame(ACTION, heading, (lidar, heading)) == Frame(1, False, True, ())
     # Without the heading as a context there is nothing to frame by; an object's motion keeps
     # the frame of its relation.
-    assert relation_frame(ACTION, robot, (lidar,), body=True) is None
+    assert relation_frame(ACTION, robot, (lidar,)) is None
     target_robot = RoleSpace(Role.TARGET, Property.POSITION, Role.ROBOT)
-    assert relation_frame(ACTION, target, (heading, target_robot), body=True) == \
+    assert relation_frame(ACTION, target, (heading, target_robot)) == \
         Frame(1, False, True, (0,))
 
 
@@ -262,10 +259,9 @@ def test_a_heading_framed_motion_model_predicts_headings_it_saw_few_moves_from()
     assert room_error > 3 * framed_error
 
 
-def test_the_learner_config_frames_the_robot_s_motion_models() -> None:
-    """`learner.body_frame` reaches the models the learner makes (and context trials fit)."""
-    import dataclasses
-
+def test_the_learner_frames_the_robot_s_motion_models_by_its_heading() -> None:
+    """The learner's models of the robot's own motion (and the context trials it fits) are
+    framed by the heading when it is their context."""
     from hadim_cli.config import LearnerConfig, WorldConfig
     from hadim_cli.learner.affordance import Fitter
     from hadim_cli.learner.dataset import Dataset
@@ -275,13 +271,13 @@ def test_the_learner_config_frames_the_robot_s_motion_models() -> None:
     layout = World(WorldConfig()).layout
     heading = RoleSpace(Role.ROBOT, Property.HEADING)
     robot = RoleSpace(Role.ROBOT, Property.POSITION)
-    for body in (False, True):
-        config = dataclasses.replace(LearnerConfig(), body_frame=body)
-        fitter = Fitter(Dataset(layout.size, 2), SpaceReader(layout, actions=ROVER_ACTIONS), config)
-        for out in (robot, heading):
-            model = fitter.new_model(ACTION, out, (heading,))
-            assert isinstance(model, FramedModel) is body
-        assert isinstance(fitter.new_model(ACTION, robot, ()), LocalLinearModel)
+    fitter = Fitter(Dataset(layout.size, 2), SpaceReader(layout, actions=ROVER_ACTIONS),
+                    LearnerConfig())
+    for out in (robot, heading):
+        for trial in (False, True):
+            model = fitter.new_model(ACTION, out, (heading,), trial=trial)
+            assert isinstance(model, FramedModel)
+    assert isinstance(fitter.new_model(ACTION, robot, ()), LocalLinearModel)
 
 
 @pytest.mark.parametrize("turn", ["along", "at"])

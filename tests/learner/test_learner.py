@@ -29,7 +29,7 @@ def test_a_context_review_keeps_the_heading_of_the_robot_s_motion(trained):
     """Seed 0's robot motion lost its heading context at iteration 268 (back at ~1150) while
     its rows mixed free moves with the robot pressed against walls and objects: its
     competence fell on the new rows and a review took the robot's position instead. From
-    free moves only (`learner.free_motion`) it keeps the heading."""
+    free moves only (`Fitter.moved_clear`) it keeps the heading."""
     movers = [a for a in trained.learner.hierarchy.with_output(ROBOT_POSITION)
               if a.input is ACTION]
     assert ROBOT_HEADING in movers[0].contexts

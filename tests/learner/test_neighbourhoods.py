@@ -7,7 +7,7 @@ import dataclasses
 import numpy as np
 import pytest
 
-from hadim_cli.config import ConfigError, LearnerConfig, WorldConfig, stored_config
+from hadim_cli.config import ConfigError, LearnerConfig, WorldConfig
 from hadim_cli.learner.affordance import Fitter
 from hadim_cli.learner.dataset import Dataset
 from hadim_cli.learner.frames import Frame, FramedModel
@@ -125,7 +125,7 @@ def test_a_state_saved_before_choices_existed_keeps_k_forward() -> None:
     np.testing.assert_array_equal(copy.predict_loo(), model.predict_loo())
 
 
-def test_the_learner_config_reaches_the_models_and_old_runs_keep_none() -> None:
+def test_the_learner_config_reaches_the_models() -> None:
     layout = World(WorldConfig()).layout
     robot = RoleSpace(Role.ROBOT, Property.POSITION)
     heading = RoleSpace(Role.ROBOT, Property.HEADING)
@@ -135,7 +135,6 @@ def test_the_learner_config_reaches_the_models_and_old_runs_keep_none() -> None:
         for contexts in ((), (heading,)):
             assert fitter.new_model(ACTION, robot, contexts).params()["k_choices"] == choices
     assert LearnerConfig().k_choices == (10, 20, 30)
-    assert stored_config({}).learner.k_choices == ()
     with pytest.raises(ConfigError, match="k_choices"):
         dataclasses.replace(LearnerConfig(), k_choices=(10, 0)).validate()
     with pytest.raises(ValueError, match="k_choices"):

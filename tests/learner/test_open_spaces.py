@@ -1,13 +1,12 @@
-"""`learner.open_contexts`: Algorithm 2 may pick any observed space of the bound objects as a
-context (the paper's Algorithm 2); off, the fixed list. `learner.open_outputs`: the LIDAR may be an
-affordance's output (item 2)."""
+"""Algorithm 2 may pick any observed space of the bound objects as a context (the paper's
+Algorithm 2). `learner.open_outputs`: the LIDAR may be an affordance's output."""
 
 from __future__ import annotations
 
 import numpy as np
-from handmade import ROBOT_LIDAR, ROBOT_POSITION, TARGET_POSITION, TARGET_ROBOT, Room
+from handmade import ROBOT_LIDAR, Room
 
-from hadim_cli.learner.spaces import Property, Role, RoleSpace, actor_contexts, context_candidates
+from hadim_cli.learner.spaces import Property, Role, actor_contexts, context_candidates
 
 TOOL_TARGET = frozenset({Role.TARGET, Role.TOOL})
 ROVER = actor_contexts(Room().layout)
@@ -17,29 +16,18 @@ def names(spaces) -> set[str]:
     return {s.name for s in spaces}
 
 
-def test_open_candidates_hold_every_observed_space_of_the_bound_objects():
-    closed = names(context_candidates(TOOL_TARGET, ROVER))
-    opened = names(context_candidates(TOOL_TARGET, ROVER, open_all=True))
-    assert closed < opened
+def test_the_candidates_hold_every_observed_space_of_the_bound_objects():
+    both = names(context_candidates(TOOL_TARGET, ROVER))
     for role in ("target", "tool"):
         for prop in ("position", "radius", "height", "color", "shape"):
-            assert f"{role}.{prop}" in opened
-        assert f"{role}-robot" in opened
-        assert f"{role}.color" not in closed and f"{role}.position" not in closed
-    assert "target-tool" in opened
+            assert f"{role}.{prop}" in both
+        assert f"{role}-robot" in both
+    assert "target-tool" in both
     # Only the roles an affordance binds, and never the robot's constant properties.
-    robot_only = names(context_candidates(frozenset({Role.ROBOT}), ROVER, open_all=True))
+    robot_only = names(context_candidates(frozenset({Role.ROBOT}), ROVER))
     assert robot_only == {"robot.heading", "robot.lidar", "robot.position"}
-
-
-def test_the_context_search_tries_the_open_spaces_when_asked():
-    colour = RoleSpace(Role.TARGET, Property.COLOR)
-    for on in (False, True):
-        room = Room(open_contexts=on)
-        push = room.affordance(room.moves(np.random.default_rng(0), 10),
-                               (TARGET_ROBOT,), inp=ROBOT_POSITION, out=TARGET_POSITION)
-        tried = {c for _, contexts, _ in room.adaptation._context_options(push) for c in contexts}
-        assert (colour in tried) == on
+    target_only = names(context_candidates(frozenset({Role.TARGET}), ROVER))
+    assert "tool.color" not in target_only and "target-tool" not in target_only
 
 
 def test_the_lidar_is_an_output_only_when_outputs_are_open():

@@ -1,4 +1,4 @@
-"""p_A's negatives are the objects that refused the robot (`learner.p_a_refusals`).
+"""p_A's negatives are the objects that refused the robot (`Adaptation._refused`).
 
 A fixed object stops the robot: its push in vain changes nothing, so it is no row of the
 pushing affordance (its input did not change), and often comes in a learning episode where
@@ -13,7 +13,6 @@ import numpy as np
 import pytest
 from handmade import ROBOT_HEADING, ROBOT_POSITION, STEP, TARGET_POSITION, TARGET_ROBOT, Room
 
-from hadim_cli.config import ConfigError, LearnerConfig, stored_config
 from hadim_cli.learner.spaces import Property, Rows
 
 pytestmark = pytest.mark.usefixtures("one_thread")
@@ -50,7 +49,7 @@ def pushing_room(young: bool = False) -> Room:
     green obj1 in every direction. `young`: the motion affordance has no context yet and has
     only seen the robot facing east (it takes every forward move for a move east)."""
     rng = np.random.default_rng(0)
-    room = Room(p_a_pooled=True, p_a_refusals=True)
+    room = Room()
     room.episode()
     if young:
         room.affordance(room.moves(rng, 200, heading=0.0))
@@ -150,13 +149,6 @@ def test_an_object_that_moved_earlier_in_the_episode_is_no_refusal():
     drive(room, "obj2", 0.5, 0.5, robot_moves=False, obj_moves=False)
     t = np.arange(later, len(room.dataset), dtype=np.int64)
     assert set(room.adaptation._refused(t).target.tolist()) == {2}
-
-
-def test_refusals_need_pooled_p_a_and_runs_stored_before_the_key_keep_them_off():
-    with pytest.raises(ConfigError, match="p_a_pooled"):
-        LearnerConfig(p_a_pooled=False, p_a_refusals=True).validate()
-    assert stored_config({}).learner.p_a_refusals is False
-
 
 
 def draw_objects(room: Room, rng: np.random.Generator) -> None:

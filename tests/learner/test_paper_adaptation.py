@@ -126,7 +126,7 @@ def test_a_match_with_another_output_stands_for_creation(paper, jitter, created,
 def test_the_options_reach_the_learner_from_the_command_line_and_are_stored(tmp_path, picks,
                                                                             matching):
     """`hadim train --set learner.paper_picks=… --set learner.paper_matching=…`: stored with
-    the run and restored, each on its own; a run stored before them reads them off."""
+    the run and restored, each on its own; a run stored before them reads the defaults."""
     from typer.testing import CliRunner
 
     from hadim_cli.app import app
@@ -148,8 +148,8 @@ def test_the_options_reach_the_learner_from_the_command_line_and_are_stored(tmp_
         assert (config.paper_picks, config.paper_matching) == (picks, matching)
         old = {k: dict(v) if isinstance(v, dict) else v for k, v in run.config.items()}
     del old["learner"]["paper_picks"], old["learner"]["paper_matching"]
-    legacy = stored_config(old).learner
-    assert (legacy.paper_picks, legacy.paper_matching) == (False, False)
+    earlier = stored_config(old).learner
+    assert (earlier.paper_picks, earlier.paper_matching) == (False, False)
 
 
 # ---------------------------------------------------------------------- (c) the data added
@@ -263,7 +263,6 @@ def test_the_paper_literal_config_turns_every_paper_switch_on_and_trains(tmp_pat
     switches = {name for name in LearnerConfig.__dataclass_fields__
                 if name.startswith(("paper_", "open_"))}
     assert switches and all(getattr(learner, name) for name in switches)
-    assert not learner.absorb_mismatch
     store = tmp_path / "s.sqlite"
     result = CliRunner().invoke(app, ["train", "--iterations", "200", "--name", "r",
                                       "--eval-every", "0", "-c", str(path),

@@ -5,7 +5,6 @@ from __future__ import annotations
 import dataclasses
 
 import numpy as np
-import pytest
 
 from hadim_cli.config import LearnerConfig, WorldConfig
 from hadim_cli.learner.affordance import Fitter
@@ -55,12 +54,10 @@ def test_tool_rows_drop_targets_the_robot_touches():
     assert fitter.touching_robot(direct.rows).any()
 
 
-@pytest.mark.parametrize("relation_frames", [False, True])
-def test_the_learner_config_sets_the_robustness_of_every_new_model(relation_frames):
+def test_the_learner_config_sets_the_robustness_of_every_new_model():
     """`learner.robust_fit` reaches the models of new affordances (a framed model's too)."""
     for robust in (0, 2):
-        config = dataclasses.replace(LearnerConfig(), robust_fit=robust,
-                                     relation_frames=relation_frames)
+        config = dataclasses.replace(LearnerConfig(), robust_fit=robust)
         fitter = Fitter(Dataset(World(WorldConfig()).layout.size, 2),
                         SpaceReader(World(WorldConfig()).layout, actions=ROVER_ACTIONS), config)
         for inp, out, contexts in ((ACTION, ROBOT_POS, ()), (ROBOT_POS, TARGET_POS, (REL,))):
@@ -69,8 +66,8 @@ def test_the_learner_config_sets_the_robustness_of_every_new_model(relation_fram
             assert model.params()["robust_iterations"] == robust
 
 
-def _drive_into(world_config: WorldConfig, scene: Scene, action, n: int,
-                free_motion: bool) -> tuple[Fitter, np.ndarray]:
+def _drive_into(world_config: WorldConfig, scene: Scene, action,
+                n: int) -> tuple[Fitter, np.ndarray]:
     """`n` times `action` from `scene`; the Fitter over them and the robot's positions."""
     world = World(world_config)
     obs = world.reset(scene=scene)
@@ -81,17 +78,15 @@ def _drive_into(world_config: WorldConfig, scene: Scene, action, n: int,
         before, obs = obs, world.step(np.asarray(action, dtype=float))
         dataset.append(np.asarray(action, dtype=float), before, obs)
         positions.append(world.robot_pose()[:2])
-    config = dataclasses.replace(LearnerConfig(), free_motion=free_motion)
     reader = SpaceReader(world.layout, actions=world.action_space)
-    return Fitter(dataset, reader, config), np.asarray(positions)
+    return Fitter(dataset, reader, LearnerConfig()), np.asarray(positions)
 
 
-@pytest.mark.parametrize("free_motion", [True, False])
-def test_the_robots_motion_is_learned_from_moves_clear_of_everything(free_motion):
-    """With `learner.free_motion`, the rows of the robot's own motion (action → robot
-    position, heading) are the actions taken clear of walls (seen by its one LIDAR ray,
-    ahead) and of objects (from their relative positions: the object is behind, where no ray
-    looks); pressed against either, the robot does not move as its wheels say."""
+def test_the_robots_motion_is_learned_from_moves_clear_of_everything():
+    """The rows of the robot's own motion (action → robot position, heading) are the
+    actions taken clear of walls (seen by its one LIDAR ray, ahead) and of objects (from
+    their relative positions: the object is behind, where no ray looks); pressed against
+    either, the robot does not move as its wheels say."""
     config = dataclasses.replace(WorldConfig(), lidar_rays=1)
     parked = [ObjectSpec(-1.6 + 0.4 * i, 1.7, 0.1, 0.2, (0.8, 0.2, 0.2), False)
               for i in range(config.n_green + config.n_red - 1)]
@@ -104,7 +99,7 @@ def test_the_robots_motion_is_learned_from_moves_clear_of_everything(free_motion
                 0.0, 0.0, 0.0)
     for scene, action, gap in ((wall, (1.0, 1.0), lambda p: p[:, 1] + 2.0),
                                (red, (-1.0, -1.0), lambda p: p[:, 0] + 0.6 - 0.1)):
-        fitter, pos = _drive_into(config, scene, action, 12, free_motion)
+        fitter, pos = _drive_into(config, scene, action, 12)
         t = np.arange(len(fitter.dataset), dtype=np.int64)
         for out in (ROBOT_POS, RoleSpace(Role.ROBOT, Property.HEADING)):
             kept = np.zeros(t.size, dtype=bool)
@@ -113,8 +108,5 @@ def test_the_robots_motion_is_learned_from_moves_clear_of_everything(free_motion
             clear = (g[:-1] > reach) & (g[1:] > reach)
             stuck = np.linalg.norm(np.diff(pos, axis=0), axis=1) < 0.05
             assert stuck.sum() >= 3 and (~stuck).sum() >= 3  # the scene has both
-            if free_motion:
-                assert np.array_equal(kept, clear)
-                assert not kept[stuck].any()
-            else:
-                assert kept.all()
+            assert np.array_equal(kept, clear)
+            assert not kept[stuck].any()
