@@ -2,8 +2,8 @@
 one in a config file) is one `error:` line naming it, exit 2, nothing stored; `hadim eval
 RUN --exact LEVEL` imagines levels by the room's physics as a diagnostic that is not stored;
 an unknown level is one `error:` line; a run of another hadim version is acted for by the
-installed code, which says so in one line, naming the keys it ignores or fills in; a tool that starts off the robot–target line, on
-a scene nothing was decided on, pushes the target."""
+installed code, which says so in one line, naming the keys it ignores or fills in; a tool that
+starts off the robot–target line, on a scene nothing was decided on, pushes the target."""
 
 from __future__ import annotations
 

@@ -19,8 +19,10 @@ import numpy as np
 from hadim_cli.learner.affordance import Affordance
 from hadim_cli.learner.classifier import VisualClassifier
 from hadim_cli.learner.explorer import Learner
+from hadim_cli.learner.frames import Frame
 from hadim_cli.learner.hierarchy import Event, EventKind
 from hadim_cli.learner.interest import InterestMap
+from hadim_cli.learner.models import Model
 from hadim_cli.learner.spaces import Rows, parse_space
 
 FORMAT = 2
@@ -92,6 +94,19 @@ def learner_state(learner: Learner) -> tuple[dict[str, Any], dict[str, np.ndarra
     return meta, arrays
 
 
+def _model_from_state(template: Model, state: dict[str, np.ndarray]) -> Model:
+    """The model `state` saved, as the installed code fits it (`template`: an empty model of
+    the installed code for the affordance): restored bit for bit when the installed code reads
+    it in the same frame, or none; else `template` fitted on the state's rows (stored in room
+    coordinates either way): a run of a version that read the model in another frame."""
+    stored = Frame.from_array(state["frame"]) if "frame" in state else None
+    if stored == getattr(template, "frame", None):
+        return type(template).from_state(state, **template.params())
+    if state["x"].shape[0]:
+        template.add(state["x"], state["c"], state["y"])
+    return template
+
+
 def _restore_affordance(learner: Learner, meta: dict[str, Any],
                         arrays: dict[str, np.ndarray]) -> Affordance:
     p = f"aff{meta['id']}"
@@ -107,8 +122,7 @@ def _restore_affordance(learner: Learner, meta: dict[str, Any],
     if "x" not in model_state:  # format 2: the model's rows are read again from D
         sample = learner.fitter.values(inp, out, contexts, rows)
         model_state.update(x=sample.x, c=sample.c, y=sample.y)
-    template = learner.fitter.new_model(inp, out, contexts)
-    model = type(template).from_state(model_state, **template.params())
+    model = _model_from_state(learner.fitter.new_model(inp, out, contexts), model_state)
     interest = InterestMap.from_state(meta["interest"], _strip(f"{p}.interest", arrays))
     classifier = None
     if meta["classifier"]:

@@ -229,3 +229,29 @@ def test_the_timeline_and_counters_come_back_as_saved():
                                              a.created_at, a.competence, a.low_streak,
                                              a.history)
         assert (b.classifier is None) == (a.classifier is None)
+
+
+def test_a_model_stored_in_another_frame_comes_back_as_the_installed_code_fits_it():
+    """A run of a version that read a model in room coordinates, where the installed code
+    reads it in a frame (the robot's motion in its heading's): the model's rows are data,
+    its frame is code — it comes back framed, fitted on the same rows, answering as a model
+    the installed code fits on them."""
+    from hadim_cli.learner.frames import FramedModel
+    from hadim_cli.learner.models import LocalLinearModel
+
+    room = rich_learner()
+    mover = room.hierarchy.with_output(ROBOT_POSITION)[0]
+    installed = mover.model
+    assert isinstance(installed, FramedModel)
+    x, c, y = installed.data()
+    old = LocalLinearModel(x.shape[1], y.shape[1], [c.shape[1]])
+    old.add(x, c, y)
+    mover.model = old
+    twin = restored(room).hierarchy.with_output(ROBOT_POSITION)[0]
+    assert isinstance(twin.model, FramedModel) and twin.model.frame == installed.frame
+    for got, want in zip(twin.model.data(), installed.data(), strict=True):
+        np.testing.assert_array_equal(got, want)
+    q = np.random.default_rng(1).uniform(-1, 1, (20, x.shape[1]))
+    h = np.random.default_rng(2).normal(size=(20, 2))
+    h /= np.linalg.norm(h, axis=1, keepdims=True)
+    np.testing.assert_allclose(twin.model.predict(q, h), installed.predict(q, h), atol=1e-12)
