@@ -264,6 +264,28 @@ def test_state_round_trip_gives_identical_future() -> None:
     assert all(np.array_equal(a1[k], a2[k]) for k in a1)
 
 
+def test_a_maps_state_lists_its_goals_in_the_order_they_were_recorded_across_splits() -> None:
+    """A store keeps only what a checkpoint adds: the goals of the state are in the order they
+    were added, whichever leaf holds them, so a later state's goals begin with an earlier
+    state's — a split moves none of them."""
+    m = InterestMap([-1.0, -1.0], [1.0, 1.0], max_goals_per_region=10, window=4)
+    rng = np.random.default_rng(5)
+    added = []
+    for i in range(60):
+        g = rng.uniform(-1.0, 1.0, 2)
+        added.append(g)
+        m.add(g, float(rng.random()), 3 * i)
+    assert m.n_regions > 2  # goals spread over several leaves
+    before = m.state()[1]
+    assert np.array_equal(before["goals"], np.array(added))
+    assert np.array_equal(before["iterations"], 3 * np.arange(60))
+    for i in range(60, 90):
+        m.add(rng.uniform(-1.0, 1.0, 2), float(rng.random()), 3 * i)
+    after = m.state()[1]
+    for key in ("goals", "competences", "iterations"):
+        assert np.array_equal(after[key][:60], before[key]), key
+
+
 def test_from_state_refuses_unknown_format() -> None:
     meta, arrays = InterestMap([0.0], [1.0]).state()
     with pytest.raises(ValueError, match="format"):
