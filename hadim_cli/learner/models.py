@@ -799,7 +799,7 @@ def _tree_knn(q: np.ndarray, pts: np.ndarray, tree: cKDTree, k: int
     return dist, idx, tie
 
 
-def _benchmark() -> None:  # pragma: no cover - manual timing
+def _benchmark() -> None:  # pragma: no cover, no mutate block - manual timing, not behaviour
     import time
 
     rng = np.random.default_rng(0)

@@ -1,5 +1,5 @@
 """CURIOUS's mechanisms against Colas et al. (ICML 2019), each with a test that fails when it
-is wrong (the planted bugs `curious-*` of scripts/plant_bugs.py):
+is wrong (each checked by planting its bug and seeing the test fail):
 
 - module choice: p(m) = 0.4 / N + 0.6 · LP(m) / ΣLP (test_algorithms.py);
 - the module encoding: one (x, y) slot per module, only the active one filled, then a one-hot

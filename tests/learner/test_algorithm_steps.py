@@ -15,6 +15,7 @@ from handmade import (
     ROBOT_HEADING,
     ROBOT_LIDAR,
     ROBOT_POSITION,
+    STEP,
     TARGET_POSITION,
     TARGET_ROBOT,
     TOOL_POSITION,
@@ -286,6 +287,29 @@ def test_nothing_is_created_from_noise_and_the_trial_backs_off():
     assert len(room.hierarchy) == 0
     room.adaptation._try_create(ROBOT_POSITION, len(room.dataset), 9, rng)
     assert len(room.hierarchy) == 1
+
+
+@pytest.mark.parametrize(("moving", "created"), [(4, False), (5, True)])
+def test_creation_is_tried_from_five_rows_where_the_output_moved(moving, created):
+    """Fewer than five rows where the output moved are too few to try an affordance: the
+    trial backs off. From five it is tried (here with τ_creation 0, so a trial creates)."""
+    room = Room(tau_creation=0.0)
+    rng = np.random.default_rng(0)
+    room.episode()
+    room.set("robot", Property.HEADING, [1.0, 0.0])
+    room.set("robot", Property.LIDAR, [1.0] * 4)  # clear of everything
+    for action in ([0.5, 0.9], [0.9, 0.3], [-0.6, -0.8], [0.4, 0.4], [-0.9, -0.2])[:moving]:
+        before = room.obs.copy()
+        here = before[room.layout.space("robot", Property.POSITION).slice]
+        room.place("robot", here + (STEP * np.mean(action), 0.0))
+        room.dataset.append(np.array(action), before, room.obs.copy())
+    for _ in range(30):  # nothing moves
+        still = room.obs.copy()
+        room.dataset.append(rng.uniform(-1.0, 1.0, 2), still, still)
+    room.adaptation.run(0, len(room.dataset), len(room.dataset), 0, rng)
+    made = [a for a in room.hierarchy if a.output == ROBOT_POSITION]
+    assert len(made) == int(created)
+    assert room.adaptation.backoff.ready(ACTION, ROBOT_POSITION, 1) is created
 
 
 def test_back_off_doubles_up_to_sixteen_episodes():

@@ -15,6 +15,7 @@ from hadim_cli.learner.interest import (
     best_cut,
     learning_progress,
     paper_progress,
+    proportional_index,
     select_index,
     split_quality,
 )
@@ -208,6 +209,8 @@ def test_unexplored_map_has_default_interest_and_bad_input_is_refused() -> None:
         m.add([0.5, 0.5], np.inf, 0)
     with pytest.raises(ValueError):
         InterestMap([0.0], [0.0])
+    with pytest.raises(ValueError, match="same length, got 2 and 1"):
+        InterestMap([0.0, 0.0], [1.0])
 
 
 def test_map_interest_is_mean_of_leaf_interests() -> None:
@@ -235,8 +238,16 @@ def test_select_index_uniform_when_epsilon_one_or_all_zero() -> None:
         assert np.bincount(picks, minlength=4) / 4000 == pytest.approx([0.25] * 4, abs=0.03)
     with pytest.raises(ValueError):
         select_index([], rng, 0.1)
-    with pytest.raises(ValueError):
+    with pytest.raises(ValueError, match=r"finite and >= 0, got \[0.1, -0.2\]"):
         select_index([0.1, -0.2], rng, 0.1)
+
+
+def test_a_draw_never_lands_on_a_zero_weight_even_at_the_ends_of_u() -> None:
+    """u ~ U[0, 1) is mapped onto the cumulative weights so that an entry of weight 0 (a
+    region or affordance of no interest) is never drawn, u = 0 included."""
+    assert proportional_index(np.array([0.0, 1.0, 0.0]), 0.0) == 1
+    assert proportional_index(np.array([1.0, 0.0, 1.0]), 0.5) == 2
+    assert proportional_index(np.array([1.0, 0.0, 1.0]), np.nextafter(0.5, 0.0)) == 0
 
 
 # ---------------------------------------------------------------------------- persistence
@@ -262,6 +273,42 @@ def test_state_round_trip_gives_identical_future() -> None:
     assert copy.leaves() == m.leaves()
     a1, a2 = m.state()[1], copy.state()[1]
     assert all(np.array_equal(a1[k], a2[k]) for k in a1)
+
+
+def test_a_maps_state_lists_its_goals_in_the_order_they_were_recorded_across_splits() -> None:
+    """A store keeps only what a checkpoint adds: the goals of the state are in the order they
+    were added, whichever leaf holds them, so a later state's goals begin with an earlier
+    state's — a split moves none of them."""
+    m = InterestMap([-1.0, -1.0], [1.0, 1.0], max_goals_per_region=10, window=4)
+    rng = np.random.default_rng(5)
+    added = []
+    for i in range(60):
+        g = rng.uniform(-1.0, 1.0, 2)
+        added.append(g)
+        m.add(g, float(rng.random()), 3 * i)
+    assert m.n_regions > 2  # goals spread over several leaves
+    before = m.state()[1]
+    assert np.array_equal(before["goals"], np.array(added))
+    assert np.array_equal(before["iterations"], 3 * np.arange(60))
+    for i in range(60, 90):
+        m.add(rng.uniform(-1.0, 1.0, 2), float(rng.random()), 3 * i)
+    after = m.state()[1]
+    for key in ("goals", "competences", "iterations"):
+        assert np.array_equal(after[key][:60], before[key]), key
+
+
+def test_a_maps_state_keeps_its_indices_and_counts_as_integers() -> None:
+    """The tree's links, split counts, iterations and regions are stored as integers (a
+    checkpoint's arrays keep their kinds), whatever the map has been through."""
+    m = InterestMap([-1.0, -1.0], [1.0, 1.0], max_goals_per_region=10, window=4)
+    _fill(m, np.random.default_rng(3), 40)
+    assert m.n_regions > 1
+    arrays = m.state()[1]
+    for key in ("node_parent", "node_split_dim", "node_left", "node_right",
+                "node_next_split_at", "iterations", "goal_region"):
+        assert arrays[key].dtype == np.int64, key
+    for key in ("node_low", "node_high", "node_split_value", "goals", "competences"):
+        assert arrays[key].dtype == np.float64, key
 
 
 def test_from_state_refuses_unknown_format() -> None:

@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from hadim_cli.learner.models import LocalLinearModel, SpaceScale
+from hadim_cli.learner.models import LocalLinearModel, SpaceScale, spread_scale
 
 A = np.array([[1.0, 0.5], [-0.3, 0.8]])
 B = np.array([[0.4, 0.0], [0.1, -0.6]])
@@ -318,3 +318,54 @@ def test_refinement_steps_bring_a_curved_maps_answer_closer_to_the_goal() -> Non
     assert np.all(predicted[1] <= predicted[0]) and np.all(predicted[2] <= predicted[1])
     assert predicted[1].mean() < 0.5 * predicted[0].mean()
     assert predicted[2].mean() < predicted[1].mean()
+
+
+def test_a_state_spaces_scale_is_the_rows_spread_about_their_mean_wherever_they_lie() -> None:
+    """A state space (a position) is scaled by the RMS distance of its rows to their mean
+    point: moving the rows, each column by its own amount, changes nothing."""
+    rows = np.array([[0.0, 10.0], [2.0, 10.0], [1.0, 11.0], [1.0, 9.0]])
+    assert spread_scale(rows) == pytest.approx(1.0)
+    assert spread_scale(rows + [5.0, -30.0]) == pytest.approx(1.0)
+
+
+def test_bad_dimensions_and_rows_are_refused_with_a_message_saying_what() -> None:
+    with pytest.raises(ValueError, match=r"dimensions must be ≥ 1, got dx=0, dy=2"):
+        LocalLinearModel(0, 2, [])
+    model = LocalLinearModel(2, 2, [])
+    with pytest.raises(ValueError, match="rows must be finite"):
+        model.add(np.full((1, 2), np.inf), None, np.zeros((1, 2)))
+
+
+def test_the_inverse_error_is_the_miss_in_units_of_the_outputs_scale() -> None:
+    """`InverseResult.error` is ‖y_predicted − y_goal‖ over the output space's scale: the same
+    data in millimetres instead of metres miss an out-of-reach goal by the same error."""
+    rng = np.random.default_rng(6)
+    x, _, y = linear_data(rng, 400, context=False)
+    goal = A @ np.array([3.0, 3.0])  # out of reach of the input box
+    errors = []
+    for unit in (1.0, 1000.0):
+        model = LocalLinearModel(2, 2, [], x_low=[-1, -1], x_high=[1, 1])
+        model.add(x, None, unit * y)
+        res = model.infer(unit * goal)
+        miss = np.linalg.norm(res.y_predicted - unit * goal)
+        assert res.error == pytest.approx(miss / model.index_scale("inverse").values[-1])
+        errors.append(res.error)
+    assert errors[0] > 0.5
+    assert errors[1] == pytest.approx(errors[0], rel=1e-6)
+
+
+def test_an_inverse_answer_is_remembered_for_its_goal_and_its_context() -> None:
+    """The same goal asked in two contexts gets each context's answer, as a model asked only
+    that question gives it."""
+    rng = np.random.default_rng(7)
+    x, c, y = linear_data(rng, 600, context=True)
+    goal = np.array([1.0, 0.5])
+    contexts = (np.array([1.0, 1.0]), np.array([4.0, 3.0]))
+    model = LocalLinearModel(2, 2, [2], x_low=[-1, -1], x_high=[1, 1])
+    model.add(x, c, y)
+    asked = [model.infer(goal, ctx).x for ctx in contexts]
+    for ctx, answer in zip(contexts, asked, strict=True):
+        fresh = LocalLinearModel(2, 2, [2], x_low=[-1, -1], x_high=[1, 1])
+        fresh.add(x, c, y)
+        np.testing.assert_array_equal(answer, fresh.infer(goal, ctx).x)
+    assert np.linalg.norm(asked[0] - asked[1]) > 0.1
