@@ -19,7 +19,7 @@ from hadim_cli.baselines.rewards import Reward
 from hadim_cli.baselines.tasks import TASKS, rl_task
 from hadim_cli.config import WorldConfig, stored_config
 from hadim_cli.errors import HadimError
-from hadim_cli.evaluation.tasks import Task, check_inside
+from hadim_cli.evaluation.tasks import Task, check_body, check_inside
 
 E = TypeVar("E", bound=enum.StrEnum)
 
@@ -178,8 +178,9 @@ def check_total(total: int, multiple: int = CHUNK_MULTIPLE) -> None:
 
 def check_fits(cfg: BaselineConfig, task: Task) -> None:
     """A baseline drives the entity it trained for, inside the room's walls: refuse a task of
-    another kind, or a target point outside the walls."""
+    another body or another kind, or a target point outside the walls."""
     world = cfg.world_config
+    check_body(task, world)
     trained = rl_task(cfg.task, world.robot_radius)
     if task.headings is not None:
         raise HadimError(f"task {task.name} asks for headings: the baselines learn positions "
