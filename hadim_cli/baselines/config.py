@@ -181,14 +181,14 @@ def check_fits(cfg: BaselineConfig, task: Task) -> None:
     another body or another kind, or a target point outside the walls."""
     world = cfg.world_config
     check_body(task, world)
-    trained = rl_task(cfg.task, world.robot_radius)
+    trained = rl_task(cfg.task, world)
     if task.headings is not None:
         raise HadimError(f"task {task.name} asks for headings: the baselines learn positions "
                          "only")
-    wants_objects = 0 if task.entity == "robot" else (2 if task.tool else 1)
+    wants_objects = 0 if task.drives_actor else (2 if task.tool else 1)
     if wants_objects != len(trained.objects):
         raise HadimError(f"this run learned {cfg.task}; task {task.name} drives "
-                         f"{'the robot' if task.entity == 'robot' else 'an object'}"
+                         f"{'the robot' if task.drives_actor else 'an object'}"
                          f"{' through a tool' if task.tool else ''}: evaluate it on "
                          f"--task {cfg.task} (or a points file of that kind)")
     check_inside(task, world)
