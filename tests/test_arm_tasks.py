@@ -59,6 +59,7 @@ def test_hadim_eval_runs_each_arm_task_on_an_arm_run(runner, arm_store, task):
     result = json.loads(ok(runner, "eval", "run-1", "--task", task, "--json",
                            "--store", arm_store).stdout)
     assert result["task"] == task and result["iteration"] == 100
+    assert result["actor"] == "effector"
     assert len(result["points"]) == len(load_task(task).points)
     assert 0.0 <= result["score"] <= 1.0
     assert all(p["actions"] <= load_task(task).budget for p in result["points"])

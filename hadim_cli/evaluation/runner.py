@@ -133,6 +133,7 @@ class TaskResult:
 
     def to_dict(self) -> dict:
         return {"task": self.task, "score": self.score, "budget": self.budget,
+                "actor": self.actor,
                 "in_zone": self.in_zone, "points_total": len(self.points),
                 "actions": sum(p.actions for p in self.points),
                 "points": [asdict(p) for p in self.points]}
