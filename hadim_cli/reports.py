@@ -226,15 +226,16 @@ def _timeline_table(events: list, own_id_column: bool) -> Table:
     return table
 
 
-def first_push_summary(pushes: list[FirstPush]) -> str:
-    """One line of the medians of the points' `FirstPush` angles."""
+def first_push_summary(pushes: list[FirstPush], actor: str = "robot") -> str:
+    """One line of the medians of the points' `FirstPush` angles (`actor`: what the world
+    calls the body's actor)."""
     def median(values: list[float]) -> str:
         return f"{float(np.median(values)):.0f}°"
 
     line = f"first pushes (median): pusher {median([f.pusher_off for f in pushes])} off the way"
     bends = [f.robot_off for f in pushes if f.robot_off is not None]
     if bends:
-        line += f", robot–tool bend {median(bends)}"
+        line += f", {actor}–tool bend {median(bends)}"
     return line + f", object's move {median([f.move_off for f in pushes])} off"
 
 
@@ -259,7 +260,7 @@ def render_eval(console: Console, result: TaskResult, iteration: int) -> None:
             path = sum(p.driven_path for p in pushed)
             caption += f"; a push moved the object {100 * path / moves:.1f} cm"
         if pushed:
-            caption += "\n" + first_push_summary([p.first_push for p in pushed])
+            caption += "\n" + first_push_summary([p.first_push for p in pushed], result.actor)
     table = _points_table(result, iteration, caption, with_start=True)
     if least_width(table) > console.width:  # 80 columns, or a pipe: the start goes
         table = _points_table(result, iteration, caption, with_start=False)
@@ -276,13 +277,13 @@ def _points_table(result: TaskResult, iteration: int, caption: str | None,
         table.add_column(col, no_wrap=True)
     for col in ("error", "actions", "trips"):
         table.add_column(col, justify="right", no_wrap=True)
-    table.add_column("robot only", justify="right")
+    table.add_column(f"{result.actor} only", justify="right", min_width=len(result.actor))
     table.add_column("note")
     for i, p in enumerate(result.points):
         def fmt(v):
             return f"{v[0]:+.2f} {v[1]:+.2f}"
 
-        note = "robot touched target" if p.contact_failed else (
+        note = f"{result.actor} touched target" if p.contact_failed else (
             "no affordance" if p.affordance_id < 0 else f"A{p.affordance_id}")
         table.add_row(str(i), fmt(p.target), *((fmt(p.start),) if with_start else ()),
                       fmt(p.final), f"{p.error:.3f}", str(p.actions), str(p.trips),

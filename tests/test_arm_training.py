@@ -1,13 +1,13 @@
 """The learner on the arm (`configs/arm.toml`): `hadim train` runs and stores a run, `hadim
-resume` continues it bit for bit, `hadim affordances` lists what it found; evaluation, whose
-tasks are all the rover's so far, is refused in one line, before anything is stored."""
+resume` continues it bit for bit, `hadim affordances` lists what it found (its evaluation:
+tests/test_arm_tasks.py)."""
 
 from __future__ import annotations
 
 import json
 from pathlib import Path
 
-from test_cli import ok, refused
+from test_cli import ok
 
 from hadim_cli.config import configs_dir
 from hadim_store import Store
@@ -47,15 +47,3 @@ def test_an_arm_run_trains_resumes_exactly_and_lists_what_it_found(runner, tmp_p
     # p_A is asked about the arm's own scene: the rover's task scenes place a robot.
     table = ok(runner, "affordances", whole, "--store", store).stdout
     assert "p_A on the objects of the scene of seed 0" in table
-
-
-def test_evaluation_on_an_arm_run_is_refused_in_one_line(runner, tmp_path):
-    store = tmp_path / "arm.sqlite"
-    line = refused(runner, "train", *ARM, "--iterations", 100, "--eval-every", 50,
-                   "--store", store, match="task move-robot")
-    assert "rover" in line and "arm" in line
-    assert not store.exists()  # refused before the store is opened
-    run = train(runner, store, 50)
-    line = refused(runner, "eval", run, "--task", "move-robot", "--store", store,
-                   match="task move-robot")
-    assert "rover" in line and "arm" in line

@@ -19,7 +19,7 @@ from hadim_cli.baselines.rewards import Reward
 from hadim_cli.baselines.tasks import TASKS, rl_task
 from hadim_cli.config import WorldConfig, stored_config
 from hadim_cli.errors import HadimError
-from hadim_cli.evaluation.tasks import Task, check_inside
+from hadim_cli.evaluation.tasks import Task, check_body, check_inside
 
 E = TypeVar("E", bound=enum.StrEnum)
 
@@ -178,16 +178,17 @@ def check_total(total: int, multiple: int = CHUNK_MULTIPLE) -> None:
 
 def check_fits(cfg: BaselineConfig, task: Task) -> None:
     """A baseline drives the entity it trained for, inside the room's walls: refuse a task of
-    another kind, or a target point outside the walls."""
+    another body or another kind, or a target point outside the walls."""
     world = cfg.world_config
-    trained = rl_task(cfg.task, world.robot_radius)
+    check_body(task, world)
+    trained = rl_task(cfg.task, world)
     if task.headings is not None:
         raise HadimError(f"task {task.name} asks for headings: the baselines learn positions "
                          "only")
-    wants_objects = 0 if task.entity == "robot" else (2 if task.tool else 1)
+    wants_objects = 0 if task.drives_actor else (2 if task.tool else 1)
     if wants_objects != len(trained.objects):
         raise HadimError(f"this run learned {cfg.task}; task {task.name} drives "
-                         f"{'the robot' if task.entity == 'robot' else 'an object'}"
+                         f"{'the robot' if task.drives_actor else 'an object'}"
                          f"{' through a tool' if task.tool else ''}: evaluate it on "
                          f"--task {cfg.task} (or a points file of that kind)")
     check_inside(task, world)

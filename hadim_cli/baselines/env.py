@@ -8,6 +8,12 @@ actions (`truncated`). Observations are a Dict (`observation`, `achieved_goal`,
 `desired_goal`), so SB3's `MultiInputPolicy` is a UVFA and HER can relabel goals;
 `compute_reward` is vectorised.
 
+The environment follows what its world declares (`make_world`): on the arm (`world.body =
+"arm"`, tasks `reach`, `arm-push`, `arm-push-with-tool`) the observation holds the effector's
+position and joint angles instead of the robot's position and heading, the discrete actions
+are the arm's moves (each joint one way or the other: `ActionSpace.discrete`), the continuous
+ones one speed per joint, and the forbidden contact is the effector's.
+
 Randomness comes only from `self.np_random` (seeded by `reset(seed=…)`). `snapshot()` and
 `restore()` capture an episode in progress as JSON (its scene, goal and actions) and rebuild it
 bit-identically by replaying the actions in a fresh world.
@@ -32,24 +38,31 @@ from hadim_cli.baselines.rewards import (
     sparse_reward,
 )
 from hadim_cli.baselines.tasks import (
+    ARM_TASKS,
     GOAL_RADIUS,
-    HALF_ROOM,
+    TASKS,
     RLTask,
     draw_goal,
     draw_start,
     rl_task,
 )
-from hadim_cli.config import WorldConfig
+from hadim_cli.config import Body, WorldConfig
 from hadim_cli.errors import HadimError
-from hadim_cli.world.layout import ROBOT, Property
-from hadim_cli.world.scene import ObjectSpec, Scene
-from hadim_cli.world.world import World
+from hadim_cli.world.actions import ROVER_ACTIONS
+from hadim_cli.world.environment import make_world
+from hadim_cli.world.layout import ObservationLayout, Property
+from hadim_cli.world.scene import ArmScene, ObjectSpec, Scene
 
 MAX_STEPS = 1000
 
 
-DISCRETE_WHEELS = np.array([[1.0, 1.0], [-1.0, -1.0], [-1.0, 1.0], [1.0, -1.0]])
-"""Wheel intensities of the discrete actions 0 forward, 1 backward, 2 turn left, 3 right."""
+DISCRETE_WHEELS = ROVER_ACTIONS.discrete
+"""Wheel intensities of the rover's discrete actions 0 forward, 1 backward, 2 turn left,
+3 right."""
+POSE: tuple[tuple[Property, tuple[str, ...] | None], ...] = (
+    (Property.HEADING, ("cos", "sin")), (Property.JOINTS, None))
+"""The actor's pose beyond its position, whichever of these the world declares, and the names
+of its values (None: the action's component names, one joint each)."""
 
 Recorder = Callable[[np.ndarray, np.ndarray, np.ndarray, float, bool, bool], None]
 
@@ -77,32 +90,37 @@ class GoalWorldEnv(gym.Env):
         self.actions = choice(Actions, actions, "actions")
         self.reward_kind = choice(Reward, reward, "reward")
         base = world or WorldConfig()
-        self.task = rl_task(task, base.robot_radius)
-        self.world = World(world_config(base, self.task))
+        self.task = rl_task(task, base)
+        self.world = make_world(world_config(base, self.task))
         self.radius = GOAL_RADIUS
         self.max_steps = max_steps
         """Actions before an episode is truncated (the paper's 1000; smaller in tests)."""
         self.reward_scale = reward_scale
         """Factor of every reward the learner sees (1: the paper's +1000 / −5; 0.001 brings
         values near ±1, `variants.Variant.FIXED`); runs record the unscaled reward."""
-        n = len(self.task.objects)
-        self._dims = 4 + 2 * n
-        box = np.full(self._dims, HALF_ROOM, dtype=np.float32)
-        box[2:4] = 1.0
-        goal = np.full(2, HALF_ROOM, dtype=np.float32)
-        self.observation_space = spaces.Dict({
-            "observation": spaces.Box(-box, box, dtype=np.float32),
-            "achieved_goal": spaces.Box(-goal, goal, dtype=np.float32),
-            "desired_goal": spaces.Box(-goal, goal, dtype=np.float32),
-        })
-        self.action_space = (spaces.Discrete(4) if self.actions is Actions.DISCRETE
-                             else spaces.Box(-1.0, 1.0, shape=(2,), dtype=np.float32))
         lay = self.world.layout
-        pos = [lay.space(e, Property.POSITION).start for e in lay.entities]
-        head = lay.space(ROBOT, Property.HEADING).start
+        moves = self.world.action_space
+        self._moves = moves.discrete
+        self._observed = _observed(lay)
         # Where observation, the chain and the goal entity sit in the world's flat vector.
-        self._obs_index = np.array([pos[0], pos[0] + 1, head, head + 1]
-                                   + [p + k for p in pos[1:] for k in (0, 1)], dtype=np.intp)
+        self._obs_index = np.concatenate([np.arange(s.start, s.start + s.dim)
+                                          for s in self._observed]).astype(np.intp)
+        self._dims = len(self._obs_index)
+        low = np.concatenate([s.low for s in self._observed]).astype(np.float32)
+        high = np.concatenate([s.high for s in self._observed]).astype(np.float32)
+        # A joint pressed to its stop reads up to ~0.4 mrad past it (docs/world.md): held in.
+        self._low, self._high = low, high
+        goal = lay.space(lay.actor, Property.POSITION)
+        goal_low, goal_high = (np.asarray(b, dtype=np.float32) for b in (goal.low, goal.high))
+        self.observation_space = spaces.Dict({
+            "observation": spaces.Box(low, high, dtype=np.float32),
+            "achieved_goal": spaces.Box(goal_low, goal_high, dtype=np.float32),
+            "desired_goal": spaces.Box(goal_low, goal_high, dtype=np.float32),
+        })
+        self.action_space = (spaces.Discrete(len(self._moves))
+                             if self.actions is Actions.DISCRETE
+                             else spaces.Box(-1.0, 1.0, shape=(moves.dim,), dtype=np.float32))
+        pos = [lay.space(e, Property.POSITION).start for e in lay.entities]
         self._chain_index = np.array([[pos[e], pos[e] + 1] for e in self.task.chain],
                                      dtype=np.intp)
         self._scene: Scene | None = None
@@ -138,7 +156,7 @@ class GoalWorldEnv(gym.Env):
         terminated = reward == GOAL_REWARD
         info["is_success"] = terminated
         raw, reward = reward, reward * self.reward_scale
-        contact = self.task.forbidden_contact
+        contact = self.task.forbidden_contact(self.world.layout.actor)
         if contact is not None and contact in self.world.last_contacts:
             terminated = True
             info["contact"] = True
@@ -163,12 +181,14 @@ class GoalWorldEnv(gym.Env):
     # ------------------------------------------------------------------ helpers
 
     def wheels(self, action) -> np.ndarray:
-        """The wheel command (left, right) of an action of this environment's action space."""
+        """The world's command (the rover's wheels (left, right), the arm's joint speeds) of
+        an action of this environment's action space."""
         if self.actions is Actions.DISCRETE:
-            return DISCRETE_WHEELS[int(action)]
-        return np.clip(np.asarray(action, dtype=np.float64).reshape(2), -1.0, 1.0)
+            return self._moves[int(action)]
+        dim = self._moves.shape[1]
+        return np.clip(np.asarray(action, dtype=np.float64).reshape(dim), -1.0, 1.0)
 
-    def _start(self, scene: Scene, goal: np.ndarray) -> dict[str, np.ndarray]:
+    def _start(self, scene: Scene | ArmScene, goal: np.ndarray) -> dict[str, np.ndarray]:
         self._scene = scene
         self._goal = np.asarray(goal, dtype=np.float32)
         self._flat = self.world.reset(scene=scene)
@@ -177,7 +197,8 @@ class GoalWorldEnv(gym.Env):
 
     def _observation(self) -> dict[str, np.ndarray]:
         flat = self._flat
-        return {"observation": flat[self._obs_index].astype(np.float32),
+        return {"observation": np.clip(flat[self._obs_index].astype(np.float32), self._low,
+                                       self._high),
                 "achieved_goal": flat[self._chain_index[-1]].astype(np.float32),
                 "desired_goal": self._goal.copy()}
 
@@ -188,9 +209,12 @@ class GoalWorldEnv(gym.Env):
     @property
     def columns(self) -> list[str]:
         """Names of the values of a recorded observation and goal."""
-        names = ["robot.x", "robot.y", "robot.cos", "robot.sin"]
-        for i in range(len(self.task.objects)):
-            names += [f"obj{i + 1}.x", f"obj{i + 1}.y"]
+        suffixes = dict(POSE)
+        names = []
+        for s in self._observed:
+            values = (("x", "y") if s.prop is Property.POSITION
+                      else suffixes[s.prop] or self.world.action_space.names)
+            names += [f"{s.entity}.{v}" for v in values]
         return names + ["goal.x", "goal.y"]
 
     @property
@@ -201,7 +225,8 @@ class GoalWorldEnv(gym.Env):
     def steps(self) -> int:
         return len(self._taken)
 
-    def start_from(self, scene: Scene, goal: Sequence[float]) -> dict[str, np.ndarray]:
+    def start_from(self, scene: Scene | ArmScene, goal: Sequence[float]
+                   ) -> dict[str, np.ndarray]:
         """Start an episode from a given scene and goal (evaluation)."""
         return self._start(scene, np.asarray(goal))
 
@@ -213,7 +238,8 @@ class GoalWorldEnv(gym.Env):
         return {
             "rng": self.np_random.bit_generator.state,
             "scene": None if scene is None else {
-                "robot": [scene.robot_x, scene.robot_y, scene.robot_heading],
+                **({"joints": list(scene.joints)} if isinstance(scene, ArmScene) else
+                   {"robot": [scene.robot_x, scene.robot_y, scene.robot_heading]}),
                 "objects": [[o.x, o.y] for o in scene.objects]},
             "goal": self._goal.tolist(), "actions": self._taken,
         }
@@ -226,18 +252,34 @@ class GoalWorldEnv(gym.Env):
         objects = tuple(ObjectSpec(x, y, s.radius, s.height, s.color, s.pushable, s.shape)
                         for (x, y), s in zip(snap["scene"]["objects"], self.task.objects,
                                              strict=True))
-        self._start(Scene(objects, *snap["scene"]["robot"]), np.asarray(snap["goal"]))
+        saved = snap["scene"]
+        scene = (ArmScene(objects, tuple(saved["joints"])) if "joints" in saved
+                 else Scene(objects, *saved["robot"]))
+        self._start(scene, np.asarray(snap["goal"]))
         for wheels in snap["actions"]:
             self._flat = self.world.step(np.asarray(wheels))
             self._taken.append(list(wheels))
         return self._observation()
 
 
+def _observed(lay: ObservationLayout) -> list:
+    """The spaces an observation holds: the actor's position and pose (`POSE`), then each
+    object's position."""
+    actor = [lay.space(lay.actor, Property.POSITION)]
+    actor += [lay.space(lay.actor, p) for p, _ in POSE if lay.has(lay.actor, p)]
+    return actor + [lay.space(o, Property.POSITION) for o in lay.objects]
+
+
 def register() -> None:
-    """`hadim/move-robot-v0`, `hadim/push-object-v0`, `hadim/push-with-tool-v0`; pass
+    """`hadim/move-robot-v0`, `hadim/push-object-v0`, `hadim/push-with-tool-v0`, and the
+    arm's `hadim/reach-v0`, `hadim/arm-push-v0`, `hadim/arm-push-with-tool-v0`; pass
     `actions="continuous"` and `reward="guided"` to `gymnasium.make` for the variants."""
-    for task in ("move-robot", "push-object", "push-with-tool"):
+    arm = WorldConfig(body=Body.ARM)
+    for task in (*TASKS, *ARM_TASKS):
         env_id = f"hadim/{task}-v0"
+        kwargs: dict[str, Any] = {"task": task}
+        if task in ARM_TASKS:
+            kwargs["world"] = arm
         if env_id not in gym.registry:
             gym.register(id=env_id, entry_point="hadim_cli.baselines.env:GoalWorldEnv",
-                         kwargs={"task": task}, disable_env_checker=True)
+                         kwargs=kwargs, disable_env_checker=True)

@@ -283,9 +283,10 @@ def eval_cmd(
         "--animate", help="Also draw every point's attempt, action by action, to this GIF.")
     ] = None,
     exact: Annotated[list[str] | None, typer.Option(
-        "--exact", help="Imagine a level of the chain by the room's physics instead of its "
-        "learned model (a diagnostic, not stored): navigation (the robot's motion), push (a "
-        "body pushed by the robot) or tool (a body pushed by another); repeat to combine.")
+        "--exact", help="Imagine a level of the chain by the world's physics instead of its "
+        "learned model (a diagnostic, not stored): navigation (the actor's own motion: the "
+        "rover's drive, the arm's kinematics), push (a body pushed by the actor) or tool (a "
+        "body pushed by another); repeat to combine.")
     ] = None,
     budget: Annotated[int | None, typer.Option(
         "--budget", help="Actions per point instead of the task's own (1-10000; stored as "

@@ -1,7 +1,8 @@
 """Animations of evaluation episodes: what the planner did, action by action.
 
-Each frame shows the part of the room where the point's attempt happens: every object, the
-robot and its heading, the paths so far (robot solid, moved objects dashed), the point to
+Each frame shows the part of the room (or table) where the point's attempt happens: every
+object, the body's actor (the robot and its heading, the arm's effector), the paths so far
+(the actor's solid, moved objects dashed), the point to
 reach (a star), and what the planner was pursuing when it chose the action — each level's
 goal as a marker, and the chain of affordances as text. Frames are drawn with matplotlib's
 `Figure` (no pyplot) and written as one GIF by Pillow; the same recordings give the same bytes.
@@ -15,7 +16,7 @@ from pathlib import Path
 import numpy as np
 
 from hadim_cli.evaluation.runner import Recording
-from hadim_cli.world.layout import ROBOT, ObservationLayout, Property
+from hadim_cli.world.layout import ObservationLayout, Property
 
 _GOAL_COLOURS = ("tab:blue", "tab:purple", "tab:orange", "tab:cyan", "tab:brown")
 
@@ -31,7 +32,7 @@ def _box(layout: ObservationLayout, rec: Recording, margin: float = 0.45
     lo, hi = pts.min(0) - margin, pts.max(0) + margin
     size = float(max(hi - lo))
     centre = (lo + hi) / 2
-    half_w, half_h = layout.space(ROBOT, Property.POSITION).high
+    half_w, half_h = layout.space(layout.actor, Property.POSITION).high
     x0 = float(np.clip(centre[0] - size / 2, -half_w - 0.05, half_w + 0.05 - size))
     y0 = float(np.clip(centre[1] - size / 2, -half_h - 0.05, half_h + 0.05 - size))
     return x0, x0 + size, y0, y0 + size
@@ -44,7 +45,8 @@ def _frame(fig, layout: ObservationLayout, rec: Recording, t: int, title: str,
     fig.clear()
     ax = fig.add_axes((0.08, 0.2, 0.88, 0.72))
     obs = rec.observations[t]
-    half_w, half_h = layout.space(ROBOT, Property.POSITION).high
+    actor = layout.actor
+    half_w, half_h = layout.space(actor, Property.POSITION).high
     ax.add_patch(Rectangle((-half_w, -half_h), 2 * half_w, 2 * half_h, fill=False,
                            edgecolor="dimgray", lw=4))
     for entity in layout.entities:
@@ -54,17 +56,18 @@ def _frame(fig, layout: ObservationLayout, rec: Recording, t: int, title: str,
         ax.add_patch(Circle(tuple(pos), radius, facecolor=colour, edgecolor="black", lw=0.8,
                             zorder=3))
         path = rec.observations[:t + 1, layout.space(entity, Property.POSITION).slice]
-        if entity == ROBOT or np.abs(np.diff(path, axis=0)).sum() > 1e-3:
-            ax.plot(path[:, 0], path[:, 1], color="black" if entity == ROBOT else colour,
-                    lw=1.0, ls="-" if entity == ROBOT else "--", zorder=2)
-        if entity != ROBOT:
+        if entity == actor or np.abs(np.diff(path, axis=0)).sum() > 1e-3:
+            ax.plot(path[:, 0], path[:, 1], color="black" if entity == actor else colour,
+                    lw=1.0, ls="-" if entity == actor else "--", zorder=2)
+        if entity != actor:
             role = {rec.target: "target", rec.tool: "tool"}.get(layout.entities.index(entity))
             if role:
                 ax.annotate(role, tuple(pos), ha="center", va="center", fontsize=7, zorder=5)
-    x, y = layout.get(obs, ROBOT, Property.POSITION)
-    r = float(layout.get(obs, ROBOT, Property.RADIUS)[0])
-    hx, hy = layout.get(obs, ROBOT, Property.HEADING)
-    ax.plot([x, x + 1.3 * r * hx], [y, y + 1.3 * r * hy], color="white", lw=2, zorder=4)
+    if layout.has(actor, Property.HEADING):  # the rover's: a line the way it faces
+        x, y = layout.get(obs, actor, Property.POSITION)
+        r = float(layout.get(obs, actor, Property.RADIUS)[0])
+        hx, hy = layout.get(obs, actor, Property.HEADING)
+        ax.plot([x, x + 1.3 * r * hx], [y, y + 1.3 * r * hy], color="white", lw=2, zorder=4)
     ax.scatter([rec.point[0]], [rec.point[1]], marker="*", s=180, color="gold",
                edgecolor="black", zorder=6)
     lines = []

@@ -4,8 +4,10 @@
 the room's physics instead of the learned forward model, so the difference of the two scores
 tells what that level's model costs:
 
-- `navigation`: the robot's own motion (`action → robot.position` and its heading) by the
-  differential drive's kinematics (each command an arc held for the action's duration);
+- `navigation`: the actor's own motion (`action → robot.position`): the rover's and its
+  heading by the differential drive's kinematics (each command an arc held for the action's
+  duration), the arm's effector by its forward kinematics (each joint turned by its command
+  for the action's duration, within its limits);
 - `push`: a body pushed by the robot (`robot.position → object`), `tool`: a body pushed by
   another (`tool.position → target`), by the contact of discs: the pusher moves along its
   move until it touches, and the rest of its move along the line of centres carries the
@@ -23,11 +25,12 @@ from collections.abc import Iterator
 
 import numpy as np
 
-from hadim_cli.config import WorldConfig
+from hadim_cli.config import Body, WorldConfig
 from hadim_cli.errors import HadimError
 from hadim_cli.learner.controller import Controller
 from hadim_cli.learner.explorer import Learner
 from hadim_cli.learner.spaces import ROBOT_HEADING, Property, SpaceReader
+from hadim_cli.world.kinematics import joint_ranges
 
 LEVELS = ("navigation", "push", "tool")
 """Levels of the chain that can be replaced by an exact one."""
@@ -59,6 +62,29 @@ class KinematicMotion:
                       -v / safe * (np.cos(theta + turn) - np.cos(theta)))
         after = np.stack([np.cos(theta + turn), np.sin(theta + turn)], axis=1)
         return np.stack([dx, dy], axis=1), after
+
+
+class ArmMotion:
+    """The free arm: each joint turned by its command × `max_joint_speed` for the action's
+    duration, held within its limits; the effector's move by the forward kinematics."""
+
+    def __init__(self, world: WorldConfig, reader: SpaceReader):
+        arm = world.arm
+        self.lengths = np.asarray(arm.link_lengths)
+        self.turn = arm.max_joint_speed * world.action_duration
+        self.limits = np.asarray(joint_ranges(arm.joint_limits))
+        lay = reader.layout
+        self.joints = lay.space(lay.actor, Property.JOINTS).slice
+
+    def effector(self, joints: np.ndarray) -> np.ndarray:
+        phi = np.cumsum(joints, axis=1)
+        return np.stack([np.cos(phi) @ self.lengths, np.sin(phi) @ self.lengths], axis=1)
+
+    def __call__(self, commands: np.ndarray, obs: np.ndarray, _: np.ndarray) -> np.ndarray:
+        """The effector's move (M, 2) for each command (M, n) from each observation (M, …)."""
+        q = obs[:, self.joints]
+        after = np.clip(q + commands * self.turn, -self.limits, self.limits)
+        return self.effector(after) - self.effector(q)
 
 
 def disc_push(start: np.ndarray, move: np.ndarray, pushed: np.ndarray, radii: np.ndarray
@@ -112,7 +138,9 @@ def exact_levels(learner: Learner, world: WorldConfig, levels: tuple[str, ...]
         return disc_push(where[0], moves, where[1], radii)
 
     stand_ins = {}
-    if "navigation" in levels:
+    if "navigation" in levels and world.body is Body.ARM:
+        stand_ins["action"] = ArmMotion(world, reader)
+    elif "navigation" in levels:
         stand_ins.update({"action": position, "heading": heading})
     for name, space in PUSHERS.items():
         if name in levels:

@@ -25,8 +25,8 @@ from hadim_cli.learner.controller import Controller, Decision
 from hadim_cli.learner.explorer import Learner
 from hadim_cli.learner.goals import Binding
 from hadim_cli.learner.spaces import ROBOT_HEADING, Property, Role, RoleSpace
+from hadim_cli.world.environment import Environment, make_world
 from hadim_cli.world.layout import ObservationLayout
-from hadim_cli.world.world import World
 
 
 @dataclass(frozen=True)
@@ -107,7 +107,7 @@ class Recording:
     """(actions + 1, observation size): before the first action, then after each."""
     steps: tuple[Step, ...]
     entity: int
-    """The entity the task drives (0: the robot)."""
+    """The entity the task drives (0: the body's actor)."""
     target: int
     tool: int
     contact_failed: bool
@@ -122,6 +122,9 @@ class TaskResult:
     """Each point's attempt, when `evaluate(..., record=True)`."""
     budget: int | None = None
     """Actions allowed per point (the task's budget, or `--budget`)."""
+    actor: str = "robot"
+    """What the world calls the body's actor (`ObservationLayout.actor`): the rover's `robot`,
+    the arm's `effector`; reports name it so."""
 
     @property
     def in_zone(self) -> int:
@@ -130,6 +133,7 @@ class TaskResult:
 
     def to_dict(self) -> dict:
         return {"task": self.task, "score": self.score, "budget": self.budget,
+                "actor": self.actor,
                 "in_zone": self.in_zone, "points_total": len(self.points),
                 "actions": sum(p.actions for p in self.points),
                 "points": [asdict(p) for p in self.points]}
@@ -140,15 +144,17 @@ MOVED = 1e-3
 
 
 class EvalActuator:
-    """Steps the evaluation world within a budget, watching robot–target contacts."""
+    """Steps the evaluation world within a budget, watching actor–target contacts (the
+    robot's, the effector's)."""
 
-    def __init__(self, world: World, obs: np.ndarray, budget: int, watch: str | None,
+    def __init__(self, world: Environment, obs: np.ndarray, budget: int, watch: str | None,
                  controller: Controller | None = None, record: bool = False):
         self.world = world
         self._obs = obs
         self.budget = budget
         self.used = 0
-        self.watch = tuple(sorted(("robot", watch))) if watch else None
+        self.watch = tuple(sorted((world.layout.actor, watch))) if watch else None
+        self._actor = world.layout.space(world.layout.actor, Property.POSITION).slice
         self.touched = False
         self.controller = controller
         """When given, each action is counted by what `controller` served (`pursuits`,
@@ -199,7 +205,7 @@ class EvalActuator:
         return self.used >= self.budget or self.touched
 
     def act(self, action: np.ndarray) -> np.ndarray:
-        before = np.asarray(self.world.robot_pose()[:2])
+        before = self._obs[self._actor]
         objects = self._obs[self._objects]
         last = self._obs
         self._obs = self.world.step(action)
@@ -210,7 +216,7 @@ class EvalActuator:
         self.robot_only += still
         # A push task's object has moved once its first push is measured (`watch_push`).
         self.robot_only_after += still and self.first_push is not None
-        self.path += float(np.linalg.norm(np.asarray(self.world.robot_pose()[:2]) - before))
+        self.path += float(np.linalg.norm(self._obs[self._actor] - before))
         if self.line is not None:
             where, a, b = self.line
             pos = self._obs[where]
@@ -236,8 +242,9 @@ class EvalActuator:
         return self._obs
 
 
-def _heading(world: World) -> float:
-    return world.robot_pose()[2]
+def _heading(world: Environment) -> float:
+    """The rover's heading (rad): only a pose task, the rover's only, reads it."""
+    return world.robot_pose()[2]  # type: ignore[attr-defined]
 
 
 def _turn_to(learner: Learner, heading: float, actuator: EvalActuator, budget: int) -> None:
@@ -291,7 +298,7 @@ def choose_affordance(learner: Learner, task: Task) -> Affordance | None:
     target.position` predicts about as well as `robot.position → target.position` but, blind
     to the robot's heading, pushes far worse. Hence tasks name the affordance they evaluate,
     as the paper evaluates its A0, A1 and A2."""
-    if task.entity == "robot":
+    if task.drives_actor:
         candidates = learner.hierarchy.with_output(RoleSpace(Role.ROBOT, Property.POSITION))
     else:
         candidates = [a for a in learner.hierarchy.with_output(
@@ -300,7 +307,7 @@ def choose_affordance(learner: Learner, task: Task) -> Affordance | None:
     return max(named or candidates, key=lambda a: a.competence, default=None)
 
 
-def _entity_index(world: World, name: str | None, task: Task) -> int:
+def _entity_index(world: Environment, name: str | None, task: Task) -> int:
     if name is None:
         return -1
     try:
@@ -314,21 +321,21 @@ def evaluate(learner: Learner, world_config: WorldConfig, task: Task,
     """Attempt every point of `task`; score = 1 − mean(min(1, final / initial distance)).
     `record`: also keep each point's observations and what the controller served."""
     check_task(task, world_config)
-    world = World(world_config)
+    world = make_world(world_config)
     aff = choose_affordance(learner, task)
     results, recordings = [], []
     for i, point in enumerate(task.points):
         obs = world.reset(scene=task.scene)
         target = _entity_index(world, task.target, task)
         tool = _entity_index(world, task.tool, task)
-        entity = 0 if task.entity == "robot" else target
+        entity = 0 if task.drives_actor else target
         start = learner.reader.entity_position(obs, entity).copy()
         actuator = EvalActuator(world, obs, task.budget, task.target if task.tool else None,
                                 learner.controller, record)
         actuator.follow(entity, start, np.asarray(point))
         if entity > 0:
             actuator.watch_push(entity, tool, np.asarray(point))
-        start_heading = _heading(world)
+        start_heading = _heading(world) if task.headings is not None else 0.0
         if aff is not None:
             binding = Binding(target=target, tool=tool) if aff.has_target else Binding()
             learner.controller.reach(aff, binding, np.asarray(point), actuator, task.budget)
@@ -353,4 +360,4 @@ def evaluate(learner: Learner, world_config: WorldConfig, task: Task,
                                         np.stack(actuator.observations), tuple(actuator.steps),
                                         entity, target, tool, actuator.touched))
     return TaskResult(task.name, task_score([r.error for r in results]), tuple(results),
-                      tuple(recordings), task.budget)
+                      tuple(recordings), task.budget, world.layout.actor)

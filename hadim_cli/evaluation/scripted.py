@@ -20,7 +20,7 @@ and the learner never uses it: it scores the task files the learner is scored on
 same metric, budget, actuator and contact rule (`evaluation.runner.EvalActuator`), so that a
 learner's score can be read against what the budget allows.
 
-    python scripts/scripted_controller.py                       # every task of configs/tasks/
+    python scripts/scripted_controller.py                       # every rover task of configs/tasks/
     python scripts/scripted_controller.py --task push-with-tool [--json]
 
 `ObservedPusher` lends its push of one object (the robot behind it, steering) to
@@ -38,10 +38,10 @@ from dataclasses import asdict, dataclass
 
 import numpy as np
 
-from hadim_cli.config import WorldConfig
+from hadim_cli.config import Body, WorldConfig
 from hadim_cli.evaluation.metric import heading_error, point_error, task_score
 from hadim_cli.evaluation.runner import EvalActuator, segment_distance
-from hadim_cli.evaluation.tasks import Task, load_task, load_task_file, task_names
+from hadim_cli.evaluation.tasks import Task, body_tasks, check_body, load_task, load_task_file
 from hadim_cli.learner.spaces import ROBOT_HEADING, SpaceReader
 from hadim_cli.world.world import World, wrap_angle
 
@@ -415,8 +415,10 @@ class ObservedPusher(Scripted):
 
 
 def run_task(task: Task, config: WorldConfig | None = None) -> tuple[float, list[PointOutcome]]:
-    """The task's score and each point's outcome."""
-    controller = Scripted(World(config or WorldConfig()), task)
+    """The task's score and each point's outcome (the rover's tasks: it drives wheels)."""
+    config = config or WorldConfig()
+    check_body(task, config)
+    controller = Scripted(World(config), task)
     points = [controller.solve(i) for i in range(len(task.points))]
     return task_score([p.error for p in points]), points
 
@@ -435,14 +437,14 @@ def _summary(name: str, score: float, points: list[PointOutcome]) -> str:
 
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    parser.add_argument("--task", help="a task of configs/tasks/ (default: all of them)")
+    parser.add_argument("--task", help="a task of configs/tasks/ (default: every rover task)")
     parser.add_argument("--points", help="a task file of your own")
     parser.add_argument("--json", action="store_true", help="print JSON")
     args = parser.parse_args(argv)
     if args.points:
         tasks = [load_task_file(args.points)]
     else:
-        tasks = [load_task(n) for n in ([args.task] if args.task else task_names())]
+        tasks = [load_task(n) for n in ([args.task] if args.task else body_tasks(Body.ROVER))]
     out = []
     for task in tasks:
         score, points = run_task(task)

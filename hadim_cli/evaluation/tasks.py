@@ -2,7 +2,9 @@
 
 A task is a TOML file in `configs/tasks/` (or a user's own file passed with `--points`).
 A user's task is named `USER_PREFIX + name`, so its scores can never be stored as, or plotted
-with, a built-in task's.
+with, a built-in task's. A task belongs to one body (`body`, the rover's when the file does not
+say): its scene places that body (the rover's pose, or the arm's joint angles), and it drives
+that body's actor (`robot`, `effector`) or an object; a run of another body refuses it.
 """
 
 from __future__ import annotations
@@ -16,8 +18,13 @@ from typing import Any
 
 from hadim_cli.config import Body, WorldConfig, configs_dir, read_toml
 from hadim_cli.errors import HadimError
-from hadim_cli.world.layout import Shape
-from hadim_cli.world.scene import ObjectSpec, Scene
+from hadim_cli.world.kinematics import inner_reach, joint_ranges, outer_reach
+from hadim_cli.world.layout import EFFECTOR, ROBOT, Shape
+from hadim_cli.world.scene import ArmScene, ObjectSpec, Scene
+
+ACTORS: dict[Body, str] = {Body.ROVER: ROBOT, Body.ARM: EFFECTOR}
+"""The name each body's world gives its actor (entity 0: `ObservationLayout.actor`), which a
+task of that body drives with `entity = "robot"` (`"effector"`)."""
 
 
 @dataclass(frozen=True)
@@ -27,11 +34,13 @@ class Task:
     name: str
     description: str
     entity: str
-    """'robot', or 'target' (the object named by `target`)."""
+    """The body's actor ('robot', 'effector': `ACTORS`), or 'target' (the object named by
+    `target`)."""
     prop: str
     points: tuple[tuple[float, float], ...]
     budget: int
-    scene: Scene
+    scene: Scene | ArmScene
+    """The rover's `Scene` for a task of the rover, the arm's `ArmScene` for one of the arm."""
     target: str | None = None
     tool: str | None = None
     """With a tool, any robot–target contact during a point's attempt fails the point."""
@@ -42,6 +51,13 @@ class Task:
     """The input space (e.g. `robot.position`) of the affordance the task evaluates, as the
     paper evaluates its A0, A1, A2 by name; None, or no such affordance in H: the most
     competent affordance that drives the task's property."""
+    body: Body = Body.ROVER
+    """The body whose runs can attempt the task."""
+
+    @property
+    def drives_actor(self) -> bool:
+        """Whether the task drives the body's actor (else an object, its `target`)."""
+        return self.entity != "target"
 
 
 USER_PREFIX = "user:"
@@ -68,16 +84,21 @@ def load_task_file(path: Path) -> Task:
 
 
 def fits_body(task: Task, world: WorldConfig) -> bool:
-    """Whether `task` is one of `world`'s body: every task is the rover's (its scene places
-    the robot)."""
-    return world.body is Body.ROVER
+    """Whether `task` is one of `world`'s body (its scene places that body)."""
+    return task.body is world.body
+
+
+def body_tasks(body: Body) -> list[str]:
+    """The built-in tasks of `body`, by name."""
+    return [name for name in task_names() if load_task(name).body is body]
 
 
 def check_body(task: Task, world: WorldConfig) -> None:
     """Refuse a task of another body than the run's."""
     if not fits_body(task, world):
-        raise HadimError(f"task {task.name} is a task of the rover; this run's body is the "
-                         f"{world.body.value}, which has no evaluation tasks yet")
+        raise HadimError(f"task {task.name} is a task of the {task.body.value}; this run's "
+                         f"body is the {world.body.value} (its tasks: "
+                         f"{', '.join(body_tasks(world.body))})")
 
 
 def check_task(task: Task, world: WorldConfig) -> None:
@@ -85,6 +106,8 @@ def check_task(task: Task, world: WorldConfig) -> None:
     objects, or a target point where the entity cannot be (outside the walls, or inside a
     fixed object)."""
     check_body(task, world)
+    if isinstance(task.scene, ArmScene):
+        _check_joints(task, task.scene, world)
     n_objects = world.n_green + world.n_red
     if len(task.scene.objects) != n_objects:
         raise HadimError(f"task {task.name} has {len(task.scene.objects)} objects in its scene; "
@@ -93,6 +116,8 @@ def check_task(task: Task, world: WorldConfig) -> None:
     radius = _driven_radius(task, world, n_objects)
     for x, y in task.points:
         _check_walls(task, x, y, radius, world)
+        if world.body is Body.ARM:
+            _check_reach(task, x, y, radius, world)
         for i, obj in enumerate(task.scene.objects):
             if not obj.pushable and math.hypot(x - obj.x, y - obj.y) < radius + obj.radius:
                 raise HadimError(f"task {task.name}: target point ({x:g}, {y:g}) is inside "
@@ -109,20 +134,49 @@ def check_inside(task: Task, world: WorldConfig) -> None:
 
 def _driven_radius(task: Task, world: WorldConfig, n_objects: int) -> float:
     """The radius of the entity the task drives (its target and tool named in the scene)."""
-    if task.entity != "target":
-        return world.robot_radius
+    if task.drives_actor:
+        return world.arm.effector_radius if world.body is Body.ARM else world.robot_radius
     index = _object_index(task.target, n_objects, task)
     _object_index(task.tool, n_objects, task)
     return task.scene.objects[index].radius
 
 
 def _check_walls(task: Task, x: float, y: float, radius: float, world: WorldConfig) -> None:
-    hw, hh = world.room_width / 2, world.room_height / 2
+    arm = world.body is Body.ARM
+    hw, hh = ((world.arm.table_width / 2, world.arm.table_height / 2) if arm
+              else (world.room_width / 2, world.room_height / 2))
     if abs(x) + radius > hw or abs(y) + radius > hh:
         raise HadimError(f"task {task.name}: target point ({x:g}, {y:g}) is outside the "
-                         f"{2 * hw:g} x {2 * hh:g} m room for a {task.entity} of radius "
-                         f"{radius:g} (points must lie within ±{hw - radius:g}, "
-                         f"±{hh - radius:g})")
+                         f"{2 * hw:g} x {2 * hh:g} m {'table' if arm else 'room'} for a "
+                         f"{task.entity} of radius {radius:g} (points must lie within "
+                         f"±{hw - radius:g}, ±{hh - radius:g})")
+
+
+def _check_joints(task: Task, scene: ArmScene, world: WorldConfig) -> None:
+    n = len(world.arm.link_lengths)
+    if len(scene.joints) != n:
+        raise HadimError(f"task {task.name} places {len(scene.joints)} joints in its scene; "
+                         f"this run's arm has {n} (world.arm.link_lengths)")
+    for i, (q, limit) in enumerate(zip(scene.joints, joint_ranges(world.arm.joint_limits),
+                                       strict=True)):
+        if not abs(q) <= limit:
+            raise HadimError(f"task {task.name} turns joint {i + 1} to {q:g} rad in its "
+                             f"scene, beyond this run's limit ±{limit:g}")
+
+
+def _check_reach(task: Task, x: float, y: float, radius: float, world: WorldConfig) -> None:
+    """Refuse a point the arm cannot bring its entity to: for the effector, outside the
+    annulus its centre reaches; for an object, inside the base or beyond the effector's
+    farthest push (its reach plus both radii)."""
+    arm = world.arm
+    near, far = inner_reach(arm.link_lengths, arm.joint_limits), outer_reach(arm.link_lengths)
+    if not task.drives_actor:
+        near, far = arm.base_radius + radius, far + arm.effector_radius + radius
+    distance = math.hypot(x, y)
+    if not near <= distance <= far:
+        raise HadimError(f"task {task.name}: target point ({x:g}, {y:g}) is {distance:.3g} m "
+                         f"from the arm's base; the arm brings its {task.entity} only "
+                         f"{near:.3g}-{far:.3g} m from it")
 
 
 def _object_index(name: str | None, n_objects: int, task: Task) -> int:
@@ -169,19 +223,22 @@ def _object(raw: Mapping[str, Any], where: str) -> ObjectSpec:
 
 
 def parse_task(values: Mapping[str, Any], where: str) -> Task:
-    known = {"name", "description", "entity", "property", "points", "budget", "scene", "target",
-             "tool", "affordance_input"}
+    known = {"name", "description", "body", "entity", "property", "points", "budget", "scene",
+             "target", "tool", "affordance_input"}
     unknown = sorted(set(values) - known)
     if unknown:
         raise HadimError(f"task file {where}: unknown key '{unknown[0]}' "
                          f"(allowed: {', '.join(sorted(known))})")
+    body = _body(values.get("body", Body.ROVER.value), where)
+    actor = ACTORS[body]
     entity = _need(values, "entity", where)
-    if entity not in ("robot", "target"):
-        raise HadimError(f"task file {where}: entity must be 'robot' or 'target', got {entity!r}")
+    if entity not in (actor, "target"):
+        raise HadimError(f"task file {where}: entity must be '{actor}' (the {body.value}'s "
+                         f"actor) or 'target', got {entity!r}")
     prop = _need(values, "property", where)
-    if prop not in ("position", "pose") or (prop == "pose" and entity != "robot"):
+    if prop not in ("position", "pose") or (prop == "pose" and entity != ROBOT):
         raise HadimError(f"task file {where}: property must be 'position', or 'pose' for the "
-                         f"robot, got {prop!r}")
+                         f"robot (the rover's), got {prop!r}")
     raw_points = _need(values, "points", where)
     if not isinstance(raw_points, list):
         raise HadimError(f"task file {where}: 'points' must be a list")
@@ -199,28 +256,52 @@ def parse_task(values: Mapping[str, Any], where: str) -> Task:
     budget = _need(values, "budget", where)
     if isinstance(budget, bool) or not isinstance(budget, int) or budget < 1:
         raise HadimError(f"task file {where}: 'budget' must be an integer >= 1")
-    scene = _scene(_need(values, "scene", where), where)
+    scene = _scene(_need(values, "scene", where), body, where)
     target, tool = values.get("target"), values.get("tool")
     if entity == "target" and not target:
         raise HadimError(f"task file {where}: entity 'target' needs target = \"objN\"")
     return Task(str(values.get("name", Path(where).stem)), str(values.get("description", "")),
                 entity, prop, points, budget, scene, target, tool, headings,
-                _affordance_input(values.get("affordance_input"), where))
+                _affordance_input(values.get("affordance_input"), where), body)
 
 
-def _scene(raw: Any, where: str) -> Scene:
-    """A `[scene]` table, or the name of a built-in task whose scene to use."""
+def _body(value: Any, where: str) -> Body:
+    try:
+        return Body(value)
+    except ValueError:
+        raise HadimError(f"task file {where}: body must be one of "
+                         f"{', '.join(repr(b.value) for b in Body)}, got {value!r}") from None
+
+
+def _scene(raw: Any, body: Body, where: str) -> Scene | ArmScene:
+    """A `[scene]` table, or the name of a built-in task (of the same body) whose scene to
+    use. The rover's places the robot (`robot = [x, y, heading]`), the arm's its joints
+    (`joints = [q1, …]`, rad, base outwards)."""
     if isinstance(raw, str):
         if raw not in task_names():
             raise HadimError(f"task file {where}: scene = {raw!r} names no built-in task "
                              f"(known: {', '.join(task_names())})")
-        return load_task(raw).scene
+        other = load_task(raw)
+        if other.body is not body:
+            raise HadimError(f"task file {where}: scene = {raw!r} is a scene of the "
+                             f"{other.body.value}; this task's body is the {body.value}")
+        return other.scene
     if not isinstance(raw, Mapping):
         raise HadimError(f"task file {where}: 'scene' must be a table or a built-in task's name")
+    foreign = "robot" if body is Body.ARM else "joints"
+    if foreign in raw:
+        raise HadimError(f"task file {where}: scene.{foreign} places another body than the "
+                         f"{body.value} (body = {body.value!r})")
+    objects = tuple(_object(o, where) for o in raw.get("objects", []))
+    if body is Body.ARM:
+        joints = _need(raw, "joints", where)
+        if not isinstance(joints, list) or not joints:
+            raise HadimError(f"task file {where}: scene.joints must be a list of joint "
+                             "angles (rad), base outwards")
+        return ArmScene(objects, tuple(_number(q, "scene.joints", where) for q in joints))
     robot = raw.get("robot", [0.0, 0.0, 0.0])
     if not isinstance(robot, list) or len(robot) != 3:
         raise HadimError(f"task file {where}: scene.robot must be [x, y, heading]")
-    objects = tuple(_object(o, where) for o in raw.get("objects", []))
     return Scene(objects, *(_number(v, "scene.robot", where) for v in robot))
 
 

@@ -27,6 +27,11 @@ class ActionSpace:
     """One name per component, in order."""
     what: str
     """What a component is, in words ("intensities", "joint speeds")."""
+    moves: tuple[tuple[float, ...], ...] = ()
+    """A few whole commands that stand for the body's elementary moves, for a learner that
+    picks among a handful of discrete actions (the RL baselines' `Discrete` action): the
+    rover's forward, backward, turn left, turn right. Empty: each component at +1, then at
+    −1, the others at 0 (the arm: each joint turned one way, then the other)."""
 
     low = -1.0
     high = 1.0
@@ -61,13 +66,23 @@ class ActionSpace:
                               f"({', '.join(repr(v) for v in values)})")
         return values
 
+    @property
+    def discrete(self) -> np.ndarray:
+        """(k, dim): the commands of the discrete actions 0 … k − 1 (`moves`)."""
+        if self.moves:
+            return np.array(self.moves, dtype=np.float64)
+        eye = np.eye(self.dim)
+        return np.stack([eye, 0.0 - eye], axis=1).reshape(-1, self.dim)  # no -0.0
+
     def sample(self, rng: np.random.Generator, n: int) -> np.ndarray:
         """`n` actions uniform in the action box, shape (n, dim)."""
         return rng.uniform(self.low, self.high, size=(n, self.dim))
 
 
-ROVER_ACTIONS = ActionSpace(("left", "right"), "intensities")
-"""The rover's: the intensity of the current to each wheel."""
+ROVER_ACTIONS = ActionSpace(("left", "right"), "intensities",
+                            ((1.0, 1.0), (-1.0, -1.0), (-1.0, 1.0), (1.0, -1.0)))
+"""The rover's: the intensity of the current to each wheel; its moves forward, backward, turn
+left, turn right (the paper's four discrete actions, §5.3)."""
 
 
 def joint_actions(n_joints: int) -> ActionSpace:
