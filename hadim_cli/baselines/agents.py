@@ -152,6 +152,8 @@ class SB3Agent:
                                        replay_buffer_kwargs=her)
             if modular:
                 self.model.replay_buffer.module_probabilities = self.envs[0].probabilities
+                self.model.replay_buffer.objects_at = \
+                    self.envs[0].base.position_columns(1).start
         self.model.horizon = cfg.horizon
         # A logger that writes nowhere: SB3's own makes a new directory under the system's
         # temporary one at every `learn` call (one per chunk: thousands per sweep).

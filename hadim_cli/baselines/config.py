@@ -11,13 +11,13 @@ from __future__ import annotations
 
 import enum
 import math
-from dataclasses import asdict, dataclass, field
+from dataclasses import asdict, dataclass, field, replace
 from typing import Any, TypeVar
 
 from hadim_cli.baselines.qlearning import QLearningParams
 from hadim_cli.baselines.rewards import Reward
-from hadim_cli.baselines.tasks import TASKS, rl_task
-from hadim_cli.config import WorldConfig, stored_config
+from hadim_cli.baselines.tasks import body_tasks, rl_task
+from hadim_cli.config import Body, WorldConfig, stored_config
 from hadim_cli.errors import HadimError
 from hadim_cli.evaluation.tasks import Task, check_body, check_inside
 
@@ -134,15 +134,31 @@ def _check_envs(algo: Algorithm, n_envs: int) -> None:
                          "step several")
 
 
+def task_world(task: str) -> WorldConfig:
+    """The default world of the body a built-in task belongs to (the rover's for a name no
+    task file holds: `make_config` then names the known tasks)."""
+    from hadim_cli.config import configs_dir
+    from hadim_cli.evaluation.tasks import load_task
+
+    if not (configs_dir() / "tasks" / f"{task}.toml").is_file():
+        return WorldConfig()
+    return replace(WorldConfig(), body=load_task(task).body)
+
+
 def make_config(algorithm: str, task: str, reward: str, actions: str, horizon: int,
                 eval_every: int, world: WorldConfig, episode_length: int = 1000,
                 checkpoint_every: int | None = None, n_envs: int = 1) -> BaselineConfig:
     """A checked config with the algorithm's parameters resolved; `HadimError` if impossible."""
     algo = choice(Algorithm, algorithm, "algorithm")
     acts = choice(Actions, actions, "actions")
-    if task not in TASKS:
-        raise HadimError(f"unknown task '{task}' (known: {', '.join(TASKS)})")
+    if task not in body_tasks(world):
+        known = "; ".join(f"the {body.value}'s: {', '.join(body_tasks(replace(world, body=body)))}"
+                          for body in Body)
+        raise HadimError(f"unknown task '{task}' for the {world.body.value} (known: {known})")
     why = refusal(algo, choice(Reward, reward, "reward"), acts)
+    if why is None and algo is Algorithm.Q_LEARNING and world.body is not Body.ROVER:
+        why = (f"q-learning's table cuts the rover's heading into sectors; the "
+               f"{world.body.value} has none: dqn, a2c or curious learn on its tasks")
     if why is not None:
         raise HadimError(why)
     _check_envs(algo, n_envs)

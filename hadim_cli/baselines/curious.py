@@ -64,12 +64,15 @@ def module_probabilities(lps: list[float]) -> np.ndarray:
     return UNIFORM_SHARE / n + (1 - UNIFORM_SHARE) * np.asarray(lps) / total
 
 
-def entity_positions(observations: np.ndarray, modules: np.ndarray) -> np.ndarray:
-    """Each row's position of module `modules[i]`'s entity: the robot (0) at columns 0-1 of
-    the observation, object k (k ≥ 1) at columns 2 + 2k, 3 + 2k (after cos, sin)."""
+def entity_positions(observations: np.ndarray, modules: np.ndarray,
+                     objects_at: int = 4) -> np.ndarray:
+    """Each row's position of module `modules[i]`'s entity: the actor (0) at columns 0-1 of
+    the observation, object k (k ≥ 1) at columns `objects_at` + 2(k − 1) onwards, after the
+    actor's pose (`GoalWorldEnv.position_columns`: 4 on the rover, after its heading's cos,
+    sin; 5 on the three-link arm, after its joints)."""
     obs = np.asarray(observations)
     modules = np.asarray(modules, dtype=np.intp)
-    start = np.where(modules == 0, 0, 2 + 2 * modules)
+    start = np.where(modules == 0, 0, objects_at + 2 * (modules - 1))
     rows = np.arange(len(obs))
     return np.stack([obs[rows, start], obs[rows, start + 1]], axis=1)
 
@@ -96,6 +99,9 @@ def modular_her_buffer(buffer_class: type) -> type:
     class ModularHer(buffer_class):  # type: ignore[misc, valid-type]
         module_probabilities = None
         """() → probabilities of the modules (set after construction)."""
+        objects_at = 4
+        """The first object's column in an observation (set after construction:
+        `GoalWorldEnv.position_columns`)."""
 
         def _future_indices(self, batch_indices, env_indices) -> np.ndarray:
             start = self.ep_start[batch_indices, env_indices]
@@ -113,11 +119,12 @@ def modular_her_buffer(buffer_class: type) -> type:
             modules = np.random.choice(n, size=len(batch_indices), p=probs)
             future = self._future_indices(batch_indices, env_indices)
             later = self.next_observations["observation"][future, env_indices]
-            goals = encode_goals(entity_positions(later, modules), modules, n)
-            obs["achieved_goal"] = encode_goals(entity_positions(obs["observation"], modules),
-                                                modules, n)
-            nxt["achieved_goal"] = encode_goals(entity_positions(nxt["observation"], modules),
-                                                modules, n)
+            at = self.objects_at
+            goals = encode_goals(entity_positions(later, modules, at), modules, n)
+            obs["achieved_goal"] = encode_goals(
+                entity_positions(obs["observation"], modules, at), modules, n)
+            nxt["achieved_goal"] = encode_goals(
+                entity_positions(nxt["observation"], modules, at), modules, n)
             obs["desired_goal"] = goals
             nxt["desired_goal"] = goals
             rewards = self.env.env_method("compute_reward", nxt["achieved_goal"], goals,
@@ -172,7 +179,7 @@ class ModularGoalEnv(gym.Wrapper):
         return out
 
     def _entity(self, obs: np.ndarray, module: int) -> np.ndarray:
-        return obs[:2] if module == 0 else obs[2 + 2 * module: 4 + 2 * module]
+        return obs[self.base.position_columns(module)]
 
     def _wrap(self, obs: dict[str, np.ndarray]) -> dict[str, np.ndarray]:
         o = obs["observation"]

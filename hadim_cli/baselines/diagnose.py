@@ -142,7 +142,7 @@ def _obs(env, row: np.ndarray) -> dict[str, np.ndarray]:
     base = getattr(env, "base", env)
     o = row[:-2].astype(np.float32)
     goal = row[-2:].astype(np.float32)
-    achieved = o[:2] if base.task.goal_entity == 0 else o[4:6]
+    achieved = o[base.position_columns(base.task.goal_entity)]
     if hasattr(env, "encode"):
         m = env.task_module
         return {"observation": o, "achieved_goal": env.encode(achieved, m),
@@ -157,7 +157,9 @@ def diagnose(store, run: str, block: int = 10_000, seed: int = 0) -> dict[str, A
     record = store.get_run(run)
     session = baseline_runs.restore(store, record)
     episodes = store.episodes(run)
-    goal = (0, 1) if session.agent.base.task.goal_entity == 0 else (4, 5)
+    base = session.agent.base
+    where = base.position_columns(base.task.goal_entity)
+    goal = (where.start, where.start + 1)
     blocks = training_blocks(episodes, block, goal)
     contexts = np.concatenate([e.contexts for e in episodes])
     rewards = np.concatenate([np.asarray(e.extra["rewards"], float) for e in episodes])

@@ -217,6 +217,17 @@ class GoalWorldEnv(gym.Env):
             names += [f"{s.entity}.{v}" for v in values]
         return names + ["goal.x", "goal.y"]
 
+    def position_columns(self, entity: int) -> slice:
+        """Where entity `entity` (0: the actor) of the layout has its position in an
+        observation (`observation_space["observation"]`)."""
+        name = self.world.layout.entities[entity]
+        start = 0
+        for s in self._observed:
+            if s.entity == name and s.prop is Property.POSITION:
+                return slice(start, start + s.dim)
+            start += s.dim
+        raise ValueError(f"entity {name} has no position in this observation")
+
     @property
     def goal(self) -> np.ndarray:
         return self._goal.copy()

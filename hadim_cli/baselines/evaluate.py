@@ -30,7 +30,7 @@ def evaluate_policy(agent, cfg: BaselineConfig, task: Task) -> TaskResult:
     base = environment(cfg)
     env = ModularGoalEnv(base) if Algorithm(cfg.algorithm) is Algorithm.CURIOUS else base
     scene = eval_scene(task, base.task)
-    entity = slice(0, 2) if base.task.goal_entity == 0 else slice(4, 6)
+    entity = base.position_columns(base.task.goal_entity)
     results = []
     for point in task.points:
         obs = env.start_from(scene, point)

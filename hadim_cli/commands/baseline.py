@@ -24,7 +24,8 @@ def _threads() -> None:
 def train(
     algo: Annotated[str, typer.Option("--algo", help="q-learning, dqn, a2c or curious.")],
     task: Annotated[str, typer.Option("--task", help="move-robot, push-object or "
-                                      "push-with-tool.")],
+                                      "push-with-tool (the rover); reach, arm-push or "
+                                      "arm-push-with-tool (the arm).")],
     reward: Annotated[str, typer.Option("--reward", help="sparse or guided (curious: "
                                         "sparse).")] = "sparse",
     actions: Annotated[str, typer.Option("--actions", help="discrete (the paper's 4) or "
@@ -50,11 +51,10 @@ def train(
 ) -> None:
     """Train a baseline on one task and store it as a run; prints the run's name."""
     from hadim_cli import runs
-    from hadim_cli.baselines.config import check_total, make_config
-    from hadim_cli.config import WorldConfig
+    from hadim_cli.baselines.config import check_total, make_config, task_world
 
     cfg = make_config(algo, task, reward, actions, horizon or iterations, eval_every,
-                      WorldConfig(), episode_length, checkpoint_every, n_envs)
+                      task_world(task), episode_length, checkpoint_every, n_envs)
     check_total(iterations, cfg.multiple)
     runs.refuse_new_run(store, name)
     from hadim_cli.baselines import runs as baseline_runs  # torch: after every refusal

@@ -14,6 +14,7 @@ from hadim_cli.baselines.tasks import ARM_TASKS
 from hadim_cli.config import Body, WorldConfig
 from hadim_cli.errors import HadimError
 from hadim_cli.world.kinematics import effector_position, inner_reach, outer_reach
+from hadim_cli.world.layout import Property
 from hadim_cli.world.scene import ArmScene
 
 ARM = WorldConfig(body=Body.ARM)
@@ -103,3 +104,90 @@ def test_the_arm_variants_are_registered():
     env = gym.make("hadim/arm-push-with-tool-v0", actions="continuous")
     assert env.unwrapped.task.name == "arm-push-with-tool"
     assert env.unwrapped.world.layout.actor == "effector"
+
+
+def _cli(*args: object):
+    from typer.testing import CliRunner
+
+    from hadim_cli.app import app
+
+    return CliRunner().invoke(app, [str(a) for a in args])
+
+
+def test_a_baseline_trains_and_is_evaluated_on_an_arm_task_through_the_cli(tmp_path):
+    """`hadim baseline train --task arm-push`: the task's body chooses the world; the stored
+    evaluation follows the pushed object, read where the arm's observation holds it (after
+    the effector's position and its three joints), from the scene's own place."""
+    import json
+
+    from hadim_cli.evaluation.tasks import load_task
+
+    store = tmp_path / "arm.sqlite"
+    result = _cli("baseline", "train", "--algo", "dqn", "--task", "arm-push", "-n", 40,
+                  "--eval-every", 20, "--episode-length", 20, "--store", store)
+    assert result.exit_code == 0, (result.stderr, result.exception)
+    shown = json.loads(_cli("runs", "show", "run-1", "--json", "--store", store).stdout)
+    assert shown["config"]["baseline"]["world"]["body"] == "arm"
+    out = _cli("eval", "run-1", "--task", "arm-push", "--json", "--store", store)
+    assert out.exit_code == 0, out.stderr
+    task = load_task("arm-push")
+    obj = task.scene.objects[0]
+    points = json.loads(out.stdout)["points"]
+    assert [tuple(p["target"]) for p in points] == [tuple(p) for p in task.points]
+    for p in points:
+        np.testing.assert_allclose(p["start"], [obj.x, obj.y], atol=1e-3)
+
+
+def test_q_learning_is_refused_on_the_arm_in_one_line(tmp_path):
+    store = tmp_path / "arm.sqlite"
+    result = _cli("baseline", "train", "--algo", "q-learning", "--task", "reach", "-n", 40,
+                  "--store", store)
+    assert result.exit_code == 2
+    lines = result.stderr.strip().splitlines()
+    assert len(lines) == 1 and lines[0].startswith("error: ") and "q-learning" in lines[0]
+    assert not store.exists()
+
+
+def test_curious_reads_each_module_s_entity_where_the_arm_s_observation_holds_it():
+    """CURIOUS's modules on the arm: the effector, the target, the tool — each one's outcome
+    read after the arm's joints, for the achieved goal of an episode and for modular HER."""
+    from hadim_cli.baselines.curious import ModularGoalEnv, entity_positions
+
+    base = arm_env("arm-push-with-tool")
+    env = ModularGoalEnv(base)
+    obs, _ = env.reset(seed=3)
+    at = base.position_columns(1).start
+    assert at == 5  # effector x, y, three joints
+    for m in range(env.n_modules):
+        want = obs["observation"][base.position_columns(m)]
+        got = entity_positions(obs["observation"][None], [m], at)[0]
+        np.testing.assert_array_equal(got, want)
+    seen = set()
+    for seed in range(40):  # every module in turn, as the draws give them
+        obs, _ = env.reset(seed=seed)
+        m = env.module
+        seen.add(m)
+        world = base.world.observe()
+        name = base.world.layout.entities[m]
+        true = base.world.layout.get(world, name, Property.POSITION)
+        np.testing.assert_allclose(obs["achieved_goal"], env.encode(true, m), atol=1e-6)
+    assert seen == set(range(env.n_modules))
+
+
+def test_modular_her_on_the_arm_relabels_with_the_objects_read_after_the_joints():
+    """A CURIOUS agent on the arm: the relabelled goals of modular HER read each object where
+    the arm's observation holds it (the first object after the effector and its joints)."""
+    from hadim_cli.baselines.agents import make_agent
+    from hadim_cli.baselines.config import make_config, task_world
+    from hadim_cli.baselines.curious import entity_positions
+
+    cfg = make_config("curious", "arm-push-with-tool", "sparse", "discrete", 1000, 0,
+                      task_world("arm-push-with-tool"), episode_length=10)
+    agent = make_agent(cfg, 0)
+    at = agent.model.replay_buffer.objects_at
+    base = agent.envs[0].base
+    obs, _ = base.reset(seed=1)
+    for m in range(3):
+        np.testing.assert_array_equal(entity_positions(obs["observation"][None], [m], at)[0],
+                                      obs["observation"][base.position_columns(m)])
+    assert at == 5
