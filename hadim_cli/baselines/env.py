@@ -60,9 +60,11 @@ DISCRETE_WHEELS = ROVER_ACTIONS.discrete
 """Wheel intensities of the rover's discrete actions 0 forward, 1 backward, 2 turn left,
 3 right."""
 POSE: tuple[tuple[Property, tuple[str, ...] | None], ...] = (
-    (Property.HEADING, ("cos", "sin")), (Property.JOINTS, None))
+    (Property.HEADING, ("cos", "sin")), (Property.ORIENTATION, ("cos", "sin")),
+    (Property.JOINTS, None))
 """The actor's pose beyond its position, whichever of these the world declares, and the names
-of its values (None: the action's component names, one joint each)."""
+of its values (None: the names of the last action components, one joint each: the joints
+after the first, whose direction is the orientation)."""
 
 Recorder = Callable[[np.ndarray, np.ndarray, np.ndarray, float, bool, bool], None]
 
@@ -213,7 +215,7 @@ class GoalWorldEnv(gym.Env):
         names = []
         for s in self._observed:
             values = (("x", "y") if s.prop is Property.POSITION
-                      else suffixes[s.prop] or self.world.action_space.names)
+                      else suffixes[s.prop] or self.world.action_space.names[-s.dim:])
             names += [f"{s.entity}.{v}" for v in values]
         return names + ["goal.x", "goal.y"]
 

@@ -74,6 +74,7 @@ class ArmMotion:
         self.turn = arm.max_joint_speed * world.action_duration
         self.limits = np.asarray(joint_ranges(arm.joint_limits))
         lay = reader.layout
+        self.orientation = lay.space(lay.actor, Property.ORIENTATION).slice
         self.joints = lay.space(lay.actor, Property.JOINTS).slice
 
     def effector(self, joints: np.ndarray) -> np.ndarray:
@@ -82,7 +83,8 @@ class ArmMotion:
 
     def __call__(self, commands: np.ndarray, obs: np.ndarray, _: np.ndarray) -> np.ndarray:
         """The effector's move (M, 2) for each command (M, n) from each observation (M, …)."""
-        q = obs[:, self.joints]
+        o = obs[:, self.orientation]
+        q = np.concatenate([np.arctan2(o[:, 1:2], o[:, 0:1]), obs[:, self.joints]], axis=1)
         after = np.clip(q + commands * self.turn, -self.limits, self.limits)
         return self.effector(after) - self.effector(q)
 

@@ -63,6 +63,11 @@ class Frame:
         return cls(int(a[0]), bool(a[1]), bool(a[2]), tuple(int(v) for v in a[3:]))
 
 
+BODY_DIRECTIONS = (Property.HEADING, Property.ORIENTATION)
+"""The directions a world declares for its actor's body (the rover's heading, the arm's
+orientation about its base): what a command does to the actor turns with them."""
+
+
 def is_vector(space: RoleSpace) -> bool:
     """A space whose values turn with the scene: changes of positions and headings, relative
     positions and the heading as contexts (an absolute position is a place, not a vector)."""
@@ -70,9 +75,10 @@ def is_vector(space: RoleSpace) -> bool:
 
 
 def turns_with_scene(space: RoleSpace) -> bool:
-    """A context whose values turn (and mirror) with the scene: a relative position or the
-    robot's heading; a size, a colour or an absolute place does not."""
-    return space.relative_to is not None or space.prop is Property.HEADING
+    """A context whose values turn (and mirror) with the scene: a relative position or a
+    direction of the actor's body (`BODY_DIRECTIONS`); a size, a colour, a joint's bend or an
+    absolute place does not."""
+    return space.relative_to is not None or space.prop in BODY_DIRECTIONS
 
 
 def relation_frame(inp: RoleSpace, out: RoleSpace,
@@ -80,14 +86,16 @@ def relation_frame(inp: RoleSpace, out: RoleSpace,
     """The frame of an affordance: that of its context relating the output's owner to the
     input's (`target-tool` for a tool pushing the target), else of the first relating the
     output's owner to anything; None without such a relation, or when the output does not
-    turn. The robot's own motion (primitive action → robot position or heading) with the
-    robot's heading as a context is framed by that heading: a wheel command moves the robot
-    the same way in its own frame whatever way it faces (up to its speed before the command,
-    which no observation holds)."""
+    turn. The actor's own motion (primitive action → its position or heading) with a direction
+    of its body as a context (`BODY_DIRECTIONS`: the rover's heading, the arm's orientation)
+    is framed by it: a wheel command moves the robot the same way in its own frame whatever
+    way it faces (up to its speed before the command, which no observation holds), a joint
+    command moves the effector the same way in the frame of the first link whatever way the
+    arm is turned about its base."""
     if not is_vector(out):
         return None
     heading = [i for i, c in enumerate(contexts)
-               if c.role is Role.ROBOT and c.prop is Property.HEADING and c.relative_to is None]
+               if c.role is Role.ROBOT and c.prop in BODY_DIRECTIONS and c.relative_to is None]
     relations = [i for i, c in enumerate(contexts)
                  if c.relative_to is not None and c.role is out.role]
     if inp is ACTION and out.role is Role.ROBOT and heading:

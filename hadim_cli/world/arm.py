@@ -37,6 +37,17 @@ from hadim_cli.world.placement import ROBOT_COLOR, draw_arm_scene
 from hadim_cli.world.scene import ArmScene
 
 
+def _angles(links: list[list[float]]) -> list[float]:
+    """Every joint's angle, base outwards, from the links' (x, y, angle) poses: the first
+    link's angle, then each link's from the one before it (plain floats: cheaper than numpy at
+    this size)."""
+    joints, inner = [], 0.0
+    for _, _, angle in links:
+        joints.append(angle - inner)
+        inner = angle
+    return joints
+
+
 def arm_layout(config: WorldConfig) -> ObservationLayout:
     """The observation layout of arm worlds built from `config`."""
     arm = config.arm
@@ -46,7 +57,7 @@ def arm_layout(config: WorldConfig) -> ObservationLayout:
         lidar_range=0.0,
         radius_max=max(config.object_radius_max, arm.effector_radius),
         height_max=max(config.object_height_max, arm.effector_height),
-        joint_limits=joint_ranges(arm.joint_limits),
+        joint_limits=tuple(arm.joint_limits),
     )
     return ObservationLayout.for_actor(EFFECTOR, arm_spaces(len(arm.link_lengths)),
                                        config.n_green + config.n_red, bounds)
@@ -67,6 +78,7 @@ class ArmWorld(Environment[ArmScene, ArmPhysics]):
         self._ranges = joint_ranges(arm.joint_limits)
         self._speed = arm.max_joint_speed
         self._effector_pos = self.layout.space(EFFECTOR, Property.POSITION).slice
+        self._orientation = self.layout.space(EFFECTOR, Property.ORIENTATION).slice
         self._joints = self.layout.space(EFFECTOR, Property.JOINTS).slice
 
     # ------------------------------------------------------------------ episode
@@ -121,8 +133,10 @@ class ArmWorld(Environment[ArmScene, ArmPhysics]):
     # ------------------------------------------------------------------ observing
 
     def joint_angles(self) -> np.ndarray:
-        """Every joint's angle (rad), base outwards, as `Property.JOINTS` reads them."""
-        return self.observe()[self._joints]
+        """Every joint's angle (rad), base outwards: the first link's from the table's +x
+        axis (the observation's `Property.ORIENTATION`), each other's from the link before it
+        (`Property.JOINTS`)."""
+        return np.array(_angles(self._require_physics().poses.poses()[:self._n].tolist()))
 
     def effector_position(self) -> tuple[float, float]:
         """(x, y) of the effector's centre (m), read from the last link's body."""
@@ -133,15 +147,13 @@ class ArmWorld(Environment[ArmScene, ArmPhysics]):
         obs, n = self._obs, self._n
         poses = self._require_physics().poses.poses()
         links = poses[:n].tolist()
-        joints, inner = [], 0.0
-        for _, _, angle in links:  # plain floats: cheaper than numpy at this size
-            joints.append(angle - inner)
-            inner = angle
+        joints = _angles(links)
         x, y, angle = links[-1]
         tip = (x + self._last_length * math.cos(angle), y + self._last_length * math.sin(angle))
         centers = poses[n:, :2]
         obs[self._effector_pos] = tip
-        obs[self._joints] = joints
+        obs[self._orientation] = (math.cos(joints[0]), math.sin(joints[0]))
+        obs[self._joints] = joints[1:]
         obs[self._obj_pos] = centers
         obs[self._obj_rel] = centers - tip
         return obs.copy()

@@ -28,6 +28,14 @@ def effector_position(link_lengths: tuple[float, ...], joints: np.ndarray) -> np
     return joint_points(link_lengths, joints)[-1]
 
 
+def pose_angles(orientation: np.ndarray, bends: np.ndarray) -> np.ndarray:
+    """Every joint's angle (rad), base outwards, from what an arm's observation holds: the
+    first link's direction as (cos, sin) (`Property.ORIENTATION`) and the other joints'
+    angles (`Property.JOINTS`)."""
+    c, s = (float(v) for v in orientation)
+    return np.concatenate([[math.atan2(s, c)], np.asarray(bends, dtype=np.float64)])
+
+
 def joint_ranges(joint_limits: tuple[float, ...]) -> tuple[float, ...]:
     """How far each joint turns either way from straight (rad): the shoulder ±π, the others
     within their configured limits."""

@@ -37,10 +37,16 @@ class Property(enum.StrEnum):
     LIDAR = "lidar"
     """Ranges of the LIDAR rays from the robot's centre (m), robot frame; the rover's robot
     only."""
+    ORIENTATION = "orientation"
+    """(cos φ, sin φ) of the direction the actor's body points from its fixed base (the arm's
+    first link, from the table's +x axis): how the whole pose is turned about the base, apart
+    from its shape (`JOINTS`). What a command does turns with it, so the actor's motion is
+    read in its frame (`frames.relation_frame`) — but, unlike the rover's `HEADING`, it is no
+    way the actor must face to move. The arm's effector only."""
     JOINTS = "joints"
-    """Angle of each joint of the arm (rad), base outwards: the first link's from the table's
-    +x axis, each other link's from the link before it, counter-clockwise, 0 straight; within
-    the joint's limits (at most ±π, so an angle never wraps); the arm's effector only."""
+    """Angle of each joint after the first (rad), base outwards: each link's from the link
+    before it, counter-clockwise, 0 straight, within the joint's limits — the pose's shape
+    (the first link's direction is `ORIENTATION`). The arm's effector only."""
     RADIUS = "radius"
     HEIGHT = "height"
     COLOR = "color"
@@ -112,8 +118,10 @@ def rover_spaces(lidar_rays: int) -> tuple[tuple[Property, int], ...]:
 
 
 def arm_spaces(n_joints: int) -> tuple[tuple[Property, int], ...]:
-    """The arm's effector's spaces: position, the joint angles and its looks."""
-    return ((Property.POSITION, 2), (Property.JOINTS, n_joints), *_LOOKS)
+    """The arm's effector's spaces: position, the first link's direction, the other joints'
+    angles and its looks."""
+    return ((Property.POSITION, 2), (Property.ORIENTATION, 2), (Property.JOINTS, n_joints - 1),
+            *_LOOKS)
 
 
 def _bounds(prop: Property, dim: int, b: LayoutBounds) -> tuple[tuple[float, ...], ...]:
@@ -121,7 +129,7 @@ def _bounds(prop: Property, dim: int, b: LayoutBounds) -> tuple[tuple[float, ...
         return (-b.half_width, -b.half_height), (b.half_width, b.half_height)
     if prop is Property.RELATIVE:
         return (-2 * b.half_width, -2 * b.half_height), (2 * b.half_width, 2 * b.half_height)
-    if prop is Property.HEADING:
+    if prop in (Property.HEADING, Property.ORIENTATION):
         return (-1.0, -1.0), (1.0, 1.0)
     if prop is Property.LIDAR:
         return (0.0,) * dim, (b.lidar_range,) * dim

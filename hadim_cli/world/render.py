@@ -16,7 +16,7 @@ from typing import Protocol
 import numpy as np
 
 from hadim_cli.config import ArmConfig, Body, WorldConfig
-from hadim_cli.world.kinematics import inner_reach, joint_points, outer_reach
+from hadim_cli.world.kinematics import inner_reach, joint_points, outer_reach, pose_angles
 from hadim_cli.world.layout import ROBOT, ObservationLayout, Property
 
 _MOVED = 1e-3  # an object whose path is longer than this (m) gets its trajectory drawn
@@ -94,7 +94,8 @@ def _arm(ax, layout: ObservationLayout, obs: np.ndarray, arm: ArmConfig) -> None
     actor = layout.actor
     ax.add_patch(Circle((0.0, 0.0), arm.base_radius, facecolor="dimgray", edgecolor="black",
                         lw=0.8, zorder=4))
-    points = joint_points(arm.link_lengths, layout.get(obs, actor, Property.JOINTS))
+    points = joint_points(arm.link_lengths, pose_angles(
+        layout.get(obs, actor, Property.ORIENTATION), layout.get(obs, actor, Property.JOINTS)))
     ax.plot(points[:, 0], points[:, 1], color="slategray", lw=5, solid_capstyle="round",
             alpha=0.9, zorder=5)
     ax.scatter(points[:-1, 0], points[:-1, 1], s=28, color="white", edgecolor="black",
