@@ -79,7 +79,7 @@ def parse_space(name: str) -> RoleSpace:
 def actor_contexts(layout: ObservationLayout) -> tuple[Property, ...]:
     """The actor's properties that can tell two situations apart: every one the world declares
     for it but its looks (which never change), in name order — the rover's heading, LIDAR and
-    position, the arm's joints and position."""
+    position, the arm's joints, orientation and position."""
     return tuple(sorted((s.prop for s in layout.spaces
                          if s.entity == layout.actor and s.prop not in VISUAL_PROPERTIES),
                         key=lambda p: p.value))

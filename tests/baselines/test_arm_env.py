@@ -13,7 +13,7 @@ from hadim_cli.baselines.env import GoalWorldEnv, register
 from hadim_cli.baselines.tasks import ARM_TASKS
 from hadim_cli.config import Body, WorldConfig
 from hadim_cli.errors import HadimError
-from hadim_cli.world.kinematics import effector_position, inner_reach, outer_reach
+from hadim_cli.world.kinematics import effector_position, inner_reach, outer_reach, pose_angles
 from hadim_cli.world.layout import Property
 from hadim_cli.world.scene import ArmScene
 
@@ -34,17 +34,18 @@ def test_check_env_passes_on_every_arm_variant(task, actions):
 
 def test_the_arm_env_observes_and_acts_as_the_arm_declares():
     env = arm_env("arm-push-with-tool")
-    assert env.columns == ["effector.x", "effector.y", "effector.joint1", "effector.joint2",
-                           "effector.joint3", "obj1.x", "obj1.y", "obj2.x", "obj2.y",
-                           "goal.x", "goal.y"]
+    assert env.columns == ["effector.x", "effector.y", "effector.cos", "effector.sin",
+                           "effector.joint2", "effector.joint3", "obj1.x", "obj1.y", "obj2.x",
+                           "obj2.y", "goal.x", "goal.y"]
     assert env.action_space.n == 6  # each joint one way, then the other
     assert env.wheels(3).tolist() == [0.0, -1.0, 0.0]
     obs, _ = env.reset(seed=3)
-    joints = obs["observation"][2:5]
+    joints = pose_angles(obs["observation"][2:4], obs["observation"][4:6])
     assert np.allclose(obs["observation"][:2], effector_position((0.6, 0.5, 0.4), joints),
                        atol=1e-3)
     after = env.step(0)[0]["observation"]  # the shoulder turns, counter-clockwise
-    assert after[2] > joints[0] and np.allclose(after[3:5], joints[1:], atol=2e-3)
+    turned = pose_angles(after[2:4], after[4:6])
+    assert turned[0] > joints[0] and np.allclose(turned[1:], joints[1:], atol=2e-3)
     with pytest.raises(HadimError, match="unknown task 'move-robot' for the arm"):
         GoalWorldEnv("move-robot", "discrete", "sparse", ARM)
 
@@ -59,7 +60,7 @@ def test_arm_starts_and_goals_lie_where_the_arm_reaches():
             if task == "reach":
                 assert near <= goal <= far
             else:
-                target = np.linalg.norm(obs["observation"][5:7])
+                target = np.linalg.norm(obs["observation"][env.position_columns(1)])
                 assert near <= target <= far and goal <= far + 0.05 + 0.12
             if task == "arm-push-with-tool":  # the tool too, where the effector gets behind it
                 assert np.linalg.norm(obs["observation"][7:9]) <= far
@@ -157,7 +158,7 @@ def test_curious_reads_each_module_s_entity_where_the_arm_s_observation_holds_it
     env = ModularGoalEnv(base)
     obs, _ = env.reset(seed=3)
     at = base.position_columns(1).start
-    assert at == 5  # effector x, y, three joints
+    assert at == 6  # effector x, y, its orientation's cos, sin, two bends
     for m in range(env.n_modules):
         want = obs["observation"][base.position_columns(m)]
         got = entity_positions(obs["observation"][None], [m], at)[0]
@@ -190,4 +191,4 @@ def test_modular_her_on_the_arm_relabels_with_the_objects_read_after_the_joints(
     for m in range(3):
         np.testing.assert_array_equal(entity_positions(obs["observation"][None], [m], at)[0],
                                       obs["observation"][base.position_columns(m)])
-    assert at == 5
+    assert at == 6

@@ -43,6 +43,15 @@ print(hashlib.sha256(np.array(obs).tobytes()).hexdigest())
 """
 
 
+
+def angles(lay, obs: np.ndarray) -> np.ndarray:
+    """Every joint's angle, base outwards, from the observation: the first link's direction
+    (`Property.ORIENTATION`) and the other joints' bends (`Property.JOINTS`)."""
+    from hadim_cli.world.kinematics import pose_angles
+
+    return pose_angles(lay.get(obs, EFFECTOR, Property.ORIENTATION),
+                       lay.get(obs, EFFECTOR, Property.JOINTS))
+
 def arm_config(**changes: object) -> WorldConfig:
     return dataclasses.replace(ARM, **changes)
 
@@ -70,10 +79,13 @@ def test_the_world_declares_its_body_action_and_observation():
     lay = world.layout
     assert lay.actor == EFFECTOR and lay.objects == tuple(f"obj{i}" for i in range(1, 10))
     assert [s.prop for s in lay.spaces if s.entity == EFFECTOR] == [
-        Property.POSITION, Property.JOINTS, Property.RADIUS, Property.HEIGHT, Property.COLOR,
-        Property.SHAPE]
+        Property.POSITION, Property.ORIENTATION, Property.JOINTS, Property.RADIUS,
+        Property.HEIGHT, Property.COLOR, Property.SHAPE]
+    # The pose: the first link's direction about the base apart from the other joints' bends.
+    orientation = lay.space(EFFECTOR, Property.ORIENTATION)
+    assert orientation.dim == 2 and orientation.low == (-1.0, -1.0)
     joints = lay.space(EFFECTOR, Property.JOINTS)
-    assert joints.low == (-math.pi, -2.0, -2.0) and joints.high == (math.pi, 2.0, 2.0)
+    assert joints.low == (-2.0, -2.0) and joints.high == (2.0, 2.0)
     assert lay.space(EFFECTOR, Property.POSITION).high == (2.0, 2.0)
     assert [(s.prop, s.dim) for s in lay.spaces if s.entity == "obj1"] == list(OBJECT_SPACES)
     rover = make_world(WorldConfig())
@@ -115,7 +127,7 @@ def test_the_effector_is_where_the_joint_angles_put_it():
         for action in [None, *rng.uniform(-1, 1, (80, 3))]:
             if action is not None:
                 obs = world.step(action)
-            at = effector_position(ARM.arm.link_lengths, lay.get(obs, EFFECTOR, Property.JOINTS))
+            at = effector_position(ARM.arm.link_lengths, angles(lay, obs))
             worst = max(worst, float(np.hypot(*(at - lay.get(obs, EFFECTOR, Property.POSITION)))))
     assert worst < 1e-3
 
@@ -161,7 +173,7 @@ def test_joint_limits_hold_under_any_command():
     commands = [c for c in corners for _ in range(40)] + list(rng.uniform(-1, 1, (60, 3)))
     worst = -np.inf
     for command in commands:
-        joints = lay.get(world.step(command), EFFECTOR, Property.JOINTS)
+        joints = angles(lay, world.step(command))
         worst = max(worst, float(np.max(np.abs(joints) - limits)))
     assert worst <= LIMIT_SLACK
     for command in corners:  # 110 actions of 0.06 rad reach every stop from anywhere
@@ -310,7 +322,11 @@ def test_observation_matches_its_layout_and_the_scene():
     obs = world.reset(seed=2)
     lay, scene = world.layout, world.scene
     assert obs.dtype == np.float64 and obs.shape == (lay.size,)
-    np.testing.assert_allclose(lay.get(obs, EFFECTOR, Property.JOINTS), scene.joints, atol=1e-12)
+    np.testing.assert_allclose(angles(lay, obs), scene.joints, atol=1e-12)
+    np.testing.assert_allclose(world.joint_angles(), scene.joints, atol=1e-12)
+    first = lay.get(obs, EFFECTOR, Property.ORIENTATION)
+    np.testing.assert_allclose(first, [math.cos(scene.joints[0]), math.sin(scene.joints[0])],
+                               atol=1e-12)
     assert lay.get(obs, EFFECTOR, Property.RADIUS)[0] == ARM.arm.effector_radius
     for name, spec in zip(lay.objects, scene.objects, strict=True):
         assert list(lay.get(obs, name, Property.POSITION)) == [spec.x, spec.y]
