@@ -448,11 +448,14 @@ def test_goal_babbling_picks_affordances_by_interest_and_records_the_attempt(mon
         monkeypatch.setattr(aff.interest, "add", lambda goal, c, it, aid=aff.id:
                             recorded.append((aid, c)))
     actuator = FakeActuator(room.obs.copy())
-    for _ in range(300):
-        room.learner.learning_episode(actuator, rng)
+    episodes = [room.learner.learning_episode(actuator, rng) for _ in range(300)]
     share = sum(aid == keen.id for aid, _ in tried) / len(tried)
     assert 0.82 < share < 0.97
     assert recorded == [(aid, 0.5) for aid, _ in tried]  # Attempt(1.0, 0.5, …): 1 − 0.5
+    # Each episode reports the affordance tried and the competence its attempt reached; the
+    # stand-in controller acted on nothing, so there were no rows to adapt H to.
+    assert [(e.affordance_id, e.competence) for e in episodes] == [(a, 0.5) for a, _ in tried]
+    assert all(e.events == () for e in episodes)
 
 
 @pytest.mark.parametrize("untried", [False, True])
