@@ -331,6 +331,24 @@ def test_creation_is_tried_from_five_rows_where_the_output_moved(moving, created
     assert room.adaptation.backoff.ready(ACTION, ROBOT_POSITION, 1) is created
 
 
+def test_creation_offers_no_input_that_closes_a_cycle_and_the_tool_only_for_an_object():
+    """The inputs creation may try for an output: the actions and the controllable spaces the
+    output does not already drive through H (A(heading → position) beside A(position →
+    heading) would close a cycle), and the tool's position, once something pushes objects,
+    for an object's output only."""
+    room = Room()
+    rng = np.random.default_rng(0)
+    t = room.moves(rng, 60)
+    room.affordance(t, out=ROBOT_HEADING)
+    assert room.hierarchy.candidate_inputs(ROBOT_POSITION) == [ACTION, ROBOT_HEADING]
+    room.affordance(t, inp=ROBOT_POSITION, out=ROBOT_HEADING)
+    assert room.hierarchy.candidate_inputs(ROBOT_POSITION) == [ACTION]
+    assert TOOL_POSITION not in room.hierarchy.candidate_inputs(TARGET_POSITION)
+    room.affordance(t, inp=ROBOT_POSITION, out=TARGET_POSITION)
+    assert TOOL_POSITION in room.hierarchy.candidate_inputs(TARGET_POSITION)
+    assert TOOL_POSITION not in room.hierarchy.candidate_inputs(ROBOT_LIDAR)
+
+
 def test_back_off_doubles_up_to_sixteen_episodes():
     b = CreationBackoff()
     episode, waits = 0, []
