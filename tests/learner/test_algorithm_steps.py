@@ -23,6 +23,7 @@ from handmade import (
 )
 
 from hadim_cli.learner.adaptation import CreationBackoff
+from hadim_cli.learner.competence import model_competence, range_scale
 from hadim_cli.learner.explorer import Fallback, Mode
 from hadim_cli.learner.goals import Attempt
 from hadim_cli.learner.hierarchy import EventKind
@@ -347,6 +348,42 @@ def test_creation_offers_no_input_that_closes_a_cycle_and_the_tool_only_for_an_o
     room.affordance(t, inp=ROBOT_POSITION, out=TARGET_POSITION)
     assert TOOL_POSITION in room.hierarchy.candidate_inputs(TARGET_POSITION)
     assert TOOL_POSITION not in room.hierarchy.candidate_inputs(ROBOT_LIDAR)
+
+
+def test_an_affordances_competence_measures_its_errors_against_the_range_of_its_outputs():
+    """C(e) expects errors of a few percent of the output's range (docs/algorithm.md): the
+    fitter scores a model with the range scale, not the outputs' RMS norm."""
+    room = Room()
+    rng = np.random.default_rng(0)
+    t = np.concatenate([room.moves(rng, 100), room.moves(rng, 50, noise=True)])
+    aff = room.affordance(t, (ROBOT_HEADING,))
+    cfg = room.config
+    y = aff.model.data()[2]
+
+    def scored(scale):
+        return model_competence(aff.model, zero_eps=cfg.zero_eps,
+                                sharpness=cfg.competence_sharpness,
+                                max_rows=cfg.competence_rows, rng=np.random.default_rng(3),
+                                scale=scale).competence
+
+    ranged = scored(range_scale(y, cfg.zero_eps))
+    assert abs(ranged - scored(None)) > 0.01  # the premise: the two scales score apart
+    assert room.fitter.competence(aff.model, np.random.default_rng(3)) == pytest.approx(ranged)
+
+
+def test_the_candidate_rows_of_a_growing_d_are_those_of_the_whole_d():
+    """The fitter keeps the candidate rows of every iteration and extends them as D grows:
+    after each growth they are, field by field, the rows read from all of D at once."""
+    room = Room()
+    rng = np.random.default_rng(0)
+    for n in (30, 12, 1):
+        room.moves(rng, n)
+        kept = room.fitter.all_candidates(ACTION, ROBOT_POSITION)
+        whole = room.fitter.candidate_rows(ACTION, ROBOT_POSITION,
+                                           np.arange(len(room.dataset), dtype=np.int64))
+        np.testing.assert_array_equal(kept.rows.t, whole.rows.t)
+        for got, want in ((kept.x, whole.x), (kept.c, whole.c), (kept.y, whole.y)):
+            np.testing.assert_array_equal(got, want)
 
 
 def test_back_off_doubles_up_to_sixteen_episodes():
