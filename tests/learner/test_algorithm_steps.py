@@ -24,6 +24,7 @@ from handmade import (
 
 from hadim_cli.learner.adaptation import CreationBackoff
 from hadim_cli.learner.affordance import Affordance
+from hadim_cli.learner.competence import model_competence, range_scale
 from hadim_cli.learner.explorer import Fallback, Mode
 from hadim_cli.learner.goals import Attempt
 from hadim_cli.learner.hierarchy import EventKind
@@ -312,6 +313,60 @@ def test_creation_is_tried_from_five_rows_where_the_output_moved(moving, created
     assert room.adaptation.backoff.ready(ACTION, ROBOT_POSITION, 1) is created
 
 
+def test_creation_offers_no_input_that_closes_a_cycle_and_the_tool_only_for_an_object():
+    """The inputs creation may try for an output: the actions and the controllable spaces the
+    output does not already drive through H (A(heading → position) beside A(position →
+    heading) would close a cycle), and the tool's position, once something pushes objects,
+    for an object's output only."""
+    room = Room()
+    rng = np.random.default_rng(0)
+    t = room.moves(rng, 60)
+    room.affordance(t, out=ROBOT_HEADING)
+    assert room.hierarchy.candidate_inputs(ROBOT_POSITION) == [ACTION, ROBOT_HEADING]
+    room.affordance(t, inp=ROBOT_POSITION, out=ROBOT_HEADING)
+    assert room.hierarchy.candidate_inputs(ROBOT_POSITION) == [ACTION]
+    assert TOOL_POSITION not in room.hierarchy.candidate_inputs(TARGET_POSITION)
+    room.affordance(t, inp=ROBOT_POSITION, out=TARGET_POSITION)
+    assert TOOL_POSITION in room.hierarchy.candidate_inputs(TARGET_POSITION)
+    assert TOOL_POSITION not in room.hierarchy.candidate_inputs(ROBOT_LIDAR)
+
+
+def test_an_affordances_competence_measures_its_errors_against_the_range_of_its_outputs():
+    """C(e) expects errors of a few percent of the output's range (docs/algorithm.md): the
+    fitter scores a model with the range scale, not the outputs' RMS norm."""
+    room = Room()
+    rng = np.random.default_rng(0)
+    t = np.concatenate([room.moves(rng, 100), room.moves(rng, 50, noise=True)])
+    aff = room.affordance(t, (ROBOT_HEADING,))
+    cfg = room.config
+    y = aff.model.data()[2]
+
+    def scored(scale):
+        return model_competence(aff.model, zero_eps=cfg.zero_eps,
+                                sharpness=cfg.competence_sharpness,
+                                max_rows=cfg.competence_rows, rng=np.random.default_rng(3),
+                                scale=scale).competence
+
+    ranged = scored(range_scale(y, cfg.zero_eps))
+    assert abs(ranged - scored(None)) > 0.01  # the premise: the two scales score apart
+    assert room.fitter.competence(aff.model, np.random.default_rng(3)) == pytest.approx(ranged)
+
+
+def test_the_candidate_rows_of_a_growing_d_are_those_of_the_whole_d():
+    """The fitter keeps the candidate rows of every iteration and extends them as D grows:
+    after each growth they are, field by field, the rows read from all of D at once."""
+    room = Room()
+    rng = np.random.default_rng(0)
+    for n in (30, 12, 1):
+        room.moves(rng, n)
+        kept = room.fitter.all_candidates(ACTION, ROBOT_POSITION)
+        whole = room.fitter.candidate_rows(ACTION, ROBOT_POSITION,
+                                           np.arange(len(room.dataset), dtype=np.int64))
+        np.testing.assert_array_equal(kept.rows.t, whole.rows.t)
+        for got, want in ((kept.x, whole.x), (kept.c, whole.c), (kept.y, whole.y)):
+            np.testing.assert_array_equal(got, want)
+
+
 def test_back_off_doubles_up_to_sixteen_episodes():
     b = CreationBackoff()
     episode, waits = 0, []
@@ -429,11 +484,14 @@ def test_goal_babbling_picks_affordances_by_interest_and_records_the_attempt(mon
         monkeypatch.setattr(aff.interest, "add", lambda goal, c, it, aid=aff.id:
                             recorded.append((aid, c)))
     actuator = FakeActuator(room.obs.copy())
-    for _ in range(300):
-        room.learner.learning_episode(actuator, rng)
+    episodes = [room.learner.learning_episode(actuator, rng) for _ in range(300)]
     share = sum(aid == keen.id for aid, _ in tried) / len(tried)
     assert 0.82 < share < 0.97
     assert recorded == [(aid, 0.5) for aid, _ in tried]  # Attempt(1.0, 0.5, …): 1 − 0.5
+    # Each episode reports the affordance tried and the competence its attempt reached; the
+    # stand-in controller acted on nothing, so there were no rows to adapt H to.
+    assert [(e.affordance_id, e.competence) for e in episodes] == [(a, 0.5) for a, _ in tried]
+    assert all(e.events == () for e in episodes)
 
 
 def test_a_goal_attempt_that_cannot_be_planned_falls_back_to_random_babbling(monkeypatch):

@@ -141,6 +141,8 @@ def test_state_round_trip_is_identical() -> None:
 def test_bad_frames_are_refused() -> None:
     with pytest.raises(ValueError, match="2-D context"):
         FramedModel(2, 2, [1, 2], Frame(0, True, True))
+    with pytest.raises(ValueError, match="2-D context, got index 1"):
+        FramedModel(2, 2, [2], Frame(1, True, True))
     with pytest.raises(ValueError, match="output must be 2-D"):
         FramedModel(2, 1, [2], Frame(0, True, True))
     model = FramedModel(2, 2, [2], Frame(0, True, True))
@@ -149,6 +151,9 @@ def test_bad_frames_are_refused() -> None:
     with pytest.raises(ValueError, match="needs a context"):
         model.add(np.zeros((1, 2)), None, np.zeros((1, 2)))
     assert model.n == 0
+    model.add(np.zeros((3, 2)), np.ones((3, 2)), np.ones((3, 2)))
+    with pytest.raises(ValueError, match=r"^x must have 2 columns"):
+        model.predict(np.zeros((1, 3)), np.ones(2))
 
 
 def test_which_relation_frames_an_affordance() -> None:
@@ -308,3 +313,29 @@ def test_outcomes_at_the_null_threshold_are_measured_turned(turn) -> None:
     turned = ~split_zero(seen(model, **_where(turn))[2], eps)
     assert np.any(stored != turned)  # the case this test is about
     _assert_seen_where_is_seen(model, eps, _where(turn))
+
+
+def test_a_framed_outcome_that_does_not_turn_keeps_the_rows_where_it_is_not_null() -> None:
+    """An outcome of other than two columns (a LIDAR's, say) does not turn with the frame:
+    `seen_where` keeps the rows where its norm is not null, as `seen` reads them."""
+    rng = np.random.default_rng(12)
+    x, c, y = pushes(rng, 300, (-np.pi, np.pi))
+    model = FramedModel(2, 4, [2, 2], Frame(0, True, False, (1,)))
+    model.add(x, c, np.c_[y, 0.5 * y])
+    _assert_seen_where_is_seen(model, 1e-9, _where("at"))
+
+
+def test_without_a_context_n_candidates_bounds_the_search_in_the_nearest_rows_context() -> None:
+    """Asked without a context, a framed model searches in the context of the stored outcome
+    nearest the goal, trying as many candidates as asked there too."""
+    rng = np.random.default_rng(13)
+    x, c, y = pushes(rng, 400, (-np.pi, np.pi))
+    model = fitted(FramedModel, x, c, y)
+    differ = 0
+    for goal in ([0.05, 0.02], [-0.03, 0.06], [0.0, -0.08]):
+        _, nb = model.inverse_neighbours(np.array(goal), k=1)
+        near = model.data()[1][nb[0][0]]
+        there = model.infer(goal, near, n_candidates=1)
+        np.testing.assert_array_equal(model.infer(goal, n_candidates=1).x, there.x)
+        differ += not np.array_equal(model.infer(goal, near).x, there.x)
+    assert differ  # one candidate is not the default's many

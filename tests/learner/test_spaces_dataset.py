@@ -69,6 +69,9 @@ def test_dataset_records_outcomes_and_episodes():
     d2.extend(d.actions[:300], d.contexts[:300], d.outcomes[:300])
     d2.extend(d.actions[300:], d.contexts[300:], d.outcomes[300:])
     assert d2.sha256() == digest
+    # The digest reads the values, whatever type they were read back in.
+    whole = (np.arange(6.0).reshape(3, 2), np.ones((3, 3)), np.full((3, 3), 0.5))
+    assert dataset_digest(*(a.astype(np.float32) for a in whole)) == dataset_digest(*whole)
 
 
 def test_p_a_features_of_the_robot_are_its_own():
