@@ -634,51 +634,42 @@ def stored_config(values: Mapping[str, Any]) -> Config:
     one a later version removed, a missing one a key added since; the installed code acts in
     their place (a run's D, H and models are data, the code that learns and acts on them is
     the installed version's), and `runs.version_note` names both."""
-    return config_from_dict(_known(Config, values))
+    return config_from_dict(_compare(Config, values, "")[0])
 
 
 def unknown_keys(values: Mapping[str, Any]) -> list[str]:
     """The dotted keys of `values` the installed Config does not know (`stored_config`)."""
-    return _unknown(Config, values, "")
+    return _compare(Config, values, "")[1]
 
 
 def missing_keys(values: Mapping[str, Any]) -> list[str]:
     """The dotted keys of the installed Config that `values` lacks: a stored run of an earlier
     version takes the installed defaults for them (`stored_config`)."""
-    return _missing(Config, values, "")
+    return _compare(Config, values, "")[2]
 
 
-def _known(cls: type, values: Mapping[str, Any]) -> dict[str, Any]:
+def _compare(cls: type, values: Mapping[str, Any], prefix: str
+             ) -> tuple[dict[str, Any], list[str], list[str]]:
+    """`values` against the dataclass `cls`, table by table: the values of the keys it knows,
+    the dotted keys it does not know, and those of its own that `values` lacks."""
     hints = typing.get_type_hints(cls)
-    out: dict[str, Any] = {}
+    known: dict[str, Any] = {}
+    unknown: list[str] = []
     for key, value in values.items():
         if key not in hints:
+            unknown.append(f"{prefix}{key}")
             continue
         if dataclasses.is_dataclass(hints[key]) and isinstance(value, Mapping):
-            value = _known(hints[key], value)
-        out[key] = value
-    return out
-
-
-def _missing(cls: type, values: Mapping[str, Any], prefix: str) -> list[str]:
-    out: list[str] = []
-    for key, hint in typing.get_type_hints(cls).items():
+            value, more, _ = _compare(hints[key], value, f"{prefix}{key}.")
+            unknown.extend(more)
+        known[key] = value
+    missing: list[str] = []
+    for key, hint in hints.items():
         if key not in values:
-            out.append(f"{prefix}{key}")
+            missing.append(f"{prefix}{key}")
         elif dataclasses.is_dataclass(hint) and isinstance(values[key], Mapping):
-            out.extend(_missing(hint, values[key], f"{prefix}{key}."))
-    return out
-
-
-def _unknown(cls: type, values: Mapping[str, Any], prefix: str) -> list[str]:
-    hints = typing.get_type_hints(cls)
-    out: list[str] = []
-    for key, value in values.items():
-        if key not in hints:
-            out.append(f"{prefix}{key}")
-        elif dataclasses.is_dataclass(hints[key]) and isinstance(value, Mapping):
-            out.extend(_unknown(hints[key], value, f"{prefix}{key}."))
-    return out
+            missing.extend(_compare(hint, values[key], f"{prefix}{key}.")[2])
+    return known, unknown, missing
 
 
 def load_config(path: Path | None = None, overrides: Iterable[str] = ()) -> Config:

@@ -137,10 +137,9 @@ def _check_envs(algo: Algorithm, n_envs: int) -> None:
 def task_world(task: str) -> WorldConfig:
     """The default world of the body a built-in task belongs to (the rover's for a name no
     task file holds: `make_config` then names the known tasks)."""
-    from hadim_cli.config import configs_dir
-    from hadim_cli.evaluation.tasks import load_task
+    from hadim_cli.evaluation.tasks import load_task, task_names
 
-    if not (configs_dir() / "tasks" / f"{task}.toml").is_file():
+    if task not in task_names():
         return WorldConfig()
     return replace(WorldConfig(), body=load_task(task).body)
 
@@ -157,8 +156,9 @@ def make_config(algorithm: str, task: str, reward: str, actions: str, horizon: i
         raise HadimError(f"unknown task '{task}' for the {world.body.value} (known: {known})")
     why = refusal(algo, choice(Reward, reward, "reward"), acts)
     if why is None and algo is Algorithm.Q_LEARNING and world.body is not Body.ROVER:
-        why = (f"q-learning's table cuts the rover's heading into sectors; the "
-               f"{world.body.value} has none: dqn, a2c or curious learn on its tasks")
+        why = (f"q-learning's table holds the rover's pose (its position and heading's sector); "
+               f"the {world.body.value}'s pose is not in it: dqn, a2c or curious learn on its "
+               "tasks")
     if why is not None:
         raise HadimError(why)
     _check_envs(algo, n_envs)

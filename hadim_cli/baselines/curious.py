@@ -65,7 +65,7 @@ def module_probabilities(lps: list[float]) -> np.ndarray:
 
 
 def entity_positions(observations: np.ndarray, modules: np.ndarray,
-                     objects_at: int = 4) -> np.ndarray:
+                     objects_at: int) -> np.ndarray:
     """Each row's position of module `modules[i]`'s entity: the actor (0) at columns 0-1 of
     the observation, object k (k ≥ 1) at columns `objects_at` + 2(k − 1) onwards, after the
     actor's pose (`GoalWorldEnv.position_columns`: 4 on the rover, after its heading's cos,
@@ -99,7 +99,7 @@ def modular_her_buffer(buffer_class: type) -> type:
     class ModularHer(buffer_class):  # type: ignore[misc, valid-type]
         module_probabilities = None
         """() → probabilities of the modules (set after construction)."""
-        objects_at = 4
+        objects_at: int | None = None
         """The first object's column in an observation (set after construction:
         `GoalWorldEnv.position_columns`)."""
 
@@ -120,6 +120,7 @@ def modular_her_buffer(buffer_class: type) -> type:
             future = self._future_indices(batch_indices, env_indices)
             later = self.next_observations["observation"][future, env_indices]
             at = self.objects_at
+            assert at is not None, "objects_at is set by the agent that builds the buffer"
             goals = encode_goals(entity_positions(later, modules, at), modules, n)
             obs["achieved_goal"] = encode_goals(
                 entity_positions(obs["observation"], modules, at), modules, n)

@@ -30,7 +30,7 @@ from hadim_cli.errors import HadimError
 from hadim_cli.learner.controller import Controller
 from hadim_cli.learner.explorer import Learner
 from hadim_cli.learner.spaces import ROBOT_HEADING, Property, SpaceReader
-from hadim_cli.world.kinematics import joint_ranges
+from hadim_cli.world.kinematics import joint_ranges, pose_angles
 
 LEVELS = ("navigation", "push", "tool")
 """Levels of the chain that can be replaced by an exact one."""
@@ -83,8 +83,7 @@ class ArmMotion:
 
     def __call__(self, commands: np.ndarray, obs: np.ndarray, _: np.ndarray) -> np.ndarray:
         """The effector's move (M, 2) for each command (M, n) from each observation (M, …)."""
-        o = obs[:, self.orientation]
-        q = np.concatenate([np.arctan2(o[:, 1:2], o[:, 0:1]), obs[:, self.joints]], axis=1)
+        q = pose_angles(obs[:, self.orientation], obs[:, self.joints])
         after = np.clip(q + commands * self.turn, -self.limits, self.limits)
         return self.effector(after) - self.effector(q)
 

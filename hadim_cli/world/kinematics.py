@@ -31,9 +31,10 @@ def effector_position(link_lengths: tuple[float, ...], joints: np.ndarray) -> np
 def pose_angles(orientation: np.ndarray, bends: np.ndarray) -> np.ndarray:
     """Every joint's angle (rad), base outwards, from what an arm's observation holds: the
     first link's direction as (cos, sin) (`Property.ORIENTATION`) and the other joints'
-    angles (`Property.JOINTS`)."""
-    c, s = (float(v) for v in orientation)
-    return np.concatenate([[math.atan2(s, c)], np.asarray(bends, dtype=np.float64)])
+    angles (`Property.JOINTS`); one pose (2,), (n − 1,) or many (M, 2), (M, n − 1)."""
+    o = np.asarray(orientation, dtype=np.float64)
+    return np.concatenate([np.arctan2(o[..., 1:2], o[..., 0:1]),
+                           np.asarray(bends, dtype=np.float64)], axis=-1)
 
 
 def joint_ranges(joint_limits: tuple[float, ...]) -> tuple[float, ...]:

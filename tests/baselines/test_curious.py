@@ -22,13 +22,15 @@ from hadim_cli.baselines.rewards import GOAL_REWARD, STEP_PENALTY
 from hadim_cli.config import WorldConfig
 
 EPISODE = 10
+ROVER_OBJECTS = 4
+"""The rover's first object column: after its position and its heading's cos, sin."""
 
 
 def test_encoding_of_many_goals_is_the_env_encoding():
     env = ModularGoalEnv(GoalWorldEnv("push-with-tool", "discrete", "sparse"))
     obs = np.array([[0.1, 0.2, 1.0, 0.0, 0.5, 0.6, -0.7, -0.8]] * 3, dtype=np.float32)
     modules = np.array([0, 1, 2])
-    positions = entity_positions(obs, modules)
+    positions = entity_positions(obs, modules, ROVER_OBJECTS)
     np.testing.assert_allclose(positions, [[0.1, 0.2], [0.5, 0.6], [-0.7, -0.8]], rtol=1e-6)
     encoded = encode_goals(positions, modules, 3)
     for row, m in zip(encoded, modules, strict=True):
@@ -41,9 +43,8 @@ def test_the_achieved_goal_is_the_active_modules_entity():
     env = ModularGoalEnv(GoalWorldEnv("push-with-tool", "discrete", "sparse"))
     obs, _ = env.reset(seed=3)
     m = env.module
-    np.testing.assert_allclose(obs["achieved_goal"],
-                               encode_goals(entity_positions(obs["observation"][None], [m]),
-                                            np.array([m]), 3)[0])
+    at = entity_positions(obs["observation"][None], [m], ROVER_OBJECTS)
+    np.testing.assert_allclose(obs["achieved_goal"], encode_goals(at, np.array([m]), 3)[0])
 
 
 @pytest.fixture(scope="module")
@@ -62,8 +63,9 @@ def buffer():
                 x = 100.0 * e + step
                 o = np.array([[x, 0.0, 1.0, 0.0, x, 1.0, x, 2.0]], dtype=np.float32)
                 goal = env.encode(np.array([99.0, 99.0]), 0)[None]
+                achieved = entity_positions(o, [0], ROVER_OBJECTS)
                 return {"observation": o, "achieved_goal": encode_goals(
-                    entity_positions(o, [0]), np.array([0]), 3), "desired_goal": goal}
+                    achieved, np.array([0]), 3), "desired_goal": goal}
             last = t == EPISODE - 1
             buf.add(obs_at(t), obs_at(t + 1), np.array([[0]]), np.array([STEP_PENALTY]),
                     np.array([last]), [{"TimeLimit.truncated": last}])

@@ -339,3 +339,47 @@ def test_without_a_context_n_candidates_bounds_the_search_in_the_nearest_rows_co
         np.testing.assert_array_equal(model.infer(goal, n_candidates=1).x, there.x)
         differ += not np.array_equal(model.infer(goal, near).x, there.x)
     assert differ  # one candidate is not the default's many
+
+
+def test_the_arm_s_motion_is_framed_by_its_orientation_and_generalises_round_its_base() -> None:
+    """The arm declares its orientation (the first link's direction) apart from its bends:
+    the learner's model of the effector's motion with both as contexts is framed by the
+    orientation, so moves seen only with the arm pointing east teach it the arm pointing
+    north (the table is the same all round the base); in room coordinates it cannot."""
+    from hadim_cli.config import Body, LearnerConfig, WorldConfig
+    from hadim_cli.learner.affordance import Fitter
+    from hadim_cli.learner.dataset import Dataset
+    from hadim_cli.learner.spaces import SpaceReader
+    from hadim_cli.world.environment import make_world
+    from hadim_cli.world.kinematics import effector_position
+
+    world = make_world(WorldConfig(body=Body.ARM))
+    layout, arm = world.layout, WorldConfig().arm
+    effector = RoleSpace(Role.ROBOT, Property.POSITION)
+    contexts = (RoleSpace(Role.ROBOT, Property.JOINTS), RoleSpace(Role.ROBOT, Property.ORIENTATION))
+    fitter = Fitter(Dataset(layout.size, 3), SpaceReader(layout, actions=world.action_space),
+                    LearnerConfig())
+    model = fitter.new_model(ACTION, effector, contexts)
+    assert isinstance(model, FramedModel)
+
+    turn = arm.max_joint_speed * WorldConfig().action_duration
+    rng = np.random.default_rng(4)
+
+    def rows(n: int, shoulder: tuple[float, float]):
+        q = np.column_stack([rng.uniform(*shoulder, n), rng.uniform(-1.5, 1.5, (n, 2))])
+        x = rng.uniform(-1, 1, (n, 3))
+        y = np.array([effector_position(arm.link_lengths, a + c * turn)
+                      - effector_position(arm.link_lengths, a) for a, c in zip(q, x, strict=True)])
+        c = np.column_stack([q[:, 1:], np.cos(q[:, 0]), np.sin(q[:, 0])])
+        return x, c, y
+
+    x, c, y = rows(600, (-0.2, 0.2))  # pointing east only
+    room = LocalLinearModel(3, 2, (2, 2))
+    for m in (model, room):
+        m.add(x, c, y)
+    qx, qc, qy = rows(50, (np.pi / 2 - 0.2, np.pi / 2 + 0.2))  # pointing north
+    scale = float(np.median(np.linalg.norm(qy, axis=1)))
+    framed_error = float(np.median(np.linalg.norm(model.predict(qx, qc) - qy, axis=1)))
+    room_error = float(np.median(np.linalg.norm(room.predict(qx, qc) - qy, axis=1)))
+    assert framed_error < 0.2 * scale
+    assert room_error > 3 * framed_error
