@@ -59,4 +59,4 @@ def evaluate_policy(agent, cfg: BaselineConfig, task: Task) -> TaskResult:
         results.append(PointResult(tuple(point), tuple(start.tolist()), tuple(final.tolist()),
                                    error, used, -1, contact, path, 0, deviation))
     return TaskResult(task.name, task_score([r.error for r in results]), tuple(results),
-                      budget=task.budget)
+                      budget=task.budget, actor=base.world.layout.actor)

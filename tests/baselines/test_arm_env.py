@@ -133,6 +133,7 @@ def test_a_baseline_trains_and_is_evaluated_on_an_arm_task_through_the_cli(tmp_p
     assert out.exit_code == 0, out.stderr
     task = load_task("arm-push")
     obj = task.scene.objects[0]
+    assert json.loads(out.stdout)["actor"] == "effector"
     points = json.loads(out.stdout)["points"]
     assert [tuple(p["target"]) for p in points] == [tuple(p) for p in task.points]
     for p in points:
