@@ -10,7 +10,7 @@ actions (`truncated`). Observations are a Dict (`observation`, `achieved_goal`,
 
 The environment follows what its world declares (`make_world`): on the arm (`world.body =
 "arm"`, tasks `reach`, `arm-push`, `arm-push-with-tool`) the observation holds the effector's
-position and joint angles instead of the robot's position and heading, the discrete actions
+position, orientation and bends instead of the robot's position and heading, the discrete actions
 are the arm's moves (each joint one way or the other: `ActionSpace.discrete`), the continuous
 ones one speed per joint, and the forbidden contact is the effector's.
 
