@@ -319,7 +319,8 @@ def eval_cmd(
     if animate is not None:
         from hadim_cli.evaluation.animate import animate as draw
 
-        draw(result.recordings, session.world.layout, animate)
+        # The world's config draws its body (an arm's links); the rover's ignores it.
+        draw(result.recordings, session.world.layout, animate, arm=session.config.world.arm)
     if as_json:
         payload = result.to_dict()
         payload["iteration"] = session.iteration
