@@ -18,6 +18,7 @@ import numpy as np
 
 from hadim_cli.config import ArmConfig
 from hadim_cli.evaluation.runner import Recording
+from hadim_cli.learner.spaces import shown_as
 from hadim_cli.world.layout import ObservationLayout, Property
 from hadim_cli.world.render import arm_points, draw_actor, draws_arm, ground
 
@@ -76,7 +77,7 @@ def _frame(fig, layout: ObservationLayout, rec: Recording, t: int, title: str,
         step = rec.steps[t - 1]
         for i, (label, goal) in enumerate(zip(step.labels, step.goals, strict=True)):
             colour = _GOAL_COLOURS[i % len(_GOAL_COLOURS)]
-            lines.append(("  " * i) + label)
+            lines.append(("  " * i) + shown_as(label, actor))
             if len(goal) == 2 and "heading" not in label:
                 ax.scatter([goal[0]], [goal[1]], marker="x", s=60, color=colour, zorder=7)
     ax.set_xlim(box[0], box[1])
