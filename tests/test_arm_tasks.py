@@ -12,7 +12,7 @@ import numpy as np
 import pytest
 from test_cli import PNG, SMALL, ok, refused, snapshot
 
-from hadim_cli.config import Body, configs_dir, load_config
+from hadim_cli.config import Body, WorldConfig, configs_dir, load_config
 from hadim_cli.evaluation.runner import EvalActuator
 from hadim_cli.evaluation.tasks import body_tasks, load_task
 from hadim_cli.world.environment import make_world
@@ -85,6 +85,51 @@ def test_eval_animates_and_plots_an_arm_run(runner, arm_store, tmp_path):
     assert png.read_bytes()[:8] == PNG
     table = ok(runner, "eval", "run-1", "--task", "arm-push", "--store", arm_store).stdout
     assert "effector" in table and "robot" not in table  # the world's name for its actor
+
+
+def test_an_arm_run_s_affordances_are_shown_with_its_effector_and_stored_by_role(
+        runner, arm_store, tmp_path):
+    """`affordances` and its `--timeline` (table and figure) name the actor as the arm's world
+    does; `--json` prints the stored role names, and showing writes nothing."""
+    from hadim_cli.learner.spaces import parse_space
+
+    before = snapshot(arm_store)
+    table = ok(runner, "affordances", "run-1", "--store", arm_store).stdout
+    timeline = ok(runner, "affordances", "run-1", "--timeline", "--out", tmp_path / "t.png",
+                  "--store", arm_store).stdout
+    for shown in (table, timeline):
+        assert "effector.position" in shown and "robot" not in shown
+    stored = json.loads(ok(runner, "affordances", "run-1", "--json", "--store",
+                           arm_store).stdout)
+    names = {n for r in stored for n in (r["input"], r["output"], *r["context"])}
+    assert "robot.position" in names and not any("effector" in n for n in names)
+    assert all(parse_space(n).name == n for n in names)
+    assert snapshot(arm_store) == before
+
+
+def test_a_space_is_shown_with_the_world_s_name_for_its_actor_the_rover_s_unchanged():
+    from hadim_cli.learner.spaces import (
+        OPEN_OUTPUT_SPACES,
+        Role,
+        actor_contexts,
+        context_candidates,
+        shown_as,
+    )
+    from hadim_cli.world.layout import actor_of
+
+    arm = make_world(load_config(configs_dir() / "arm.toml", []).world)
+    every = frozenset({Role.ROBOT, Role.TARGET, Role.TOOL})
+    names = [s.name for world in (arm, make_world(load_config(None, []).world))
+             for s in (*OPEN_OUTPUT_SPACES,
+                       *context_candidates(every, actor_contexts(world.layout)))]
+    assert all(shown_as(n, "robot") == n for n in names)
+    for body in Body:  # the name a stored run's tables use is the one its world declares
+        assert actor_of(body) == make_world(WorldConfig(body=body)).layout.actor
+    assert shown_as("target-robot", "effector") == "target-effector"
+    assert shown_as("robot.joints", "effector") == "effector.joints"
+    assert shown_as("A2 robot.position", "effector") == "A2 effector.position"
+    assert shown_as("place robot for A3", "effector") == "place effector for A3"
+    assert shown_as("target-tool", "effector") == "target-tool"
 
 
 def test_a_task_of_one_body_on_a_run_of_the_other_is_refused_with_nothing_stored(

@@ -155,10 +155,6 @@ def make_config(algorithm: str, task: str, reward: str, actions: str, horizon: i
                           for body in Body)
         raise HadimError(f"unknown task '{task}' for the {world.body.value} (known: {known})")
     why = refusal(algo, choice(Reward, reward, "reward"), acts)
-    if why is None and algo is Algorithm.Q_LEARNING and world.body is not Body.ROVER:
-        why = (f"q-learning's table holds the rover's pose (its position and heading's sector); "
-               f"the {world.body.value}'s pose is not in it: dqn, a2c or curious learn on its "
-               "tasks")
     if why is not None:
         raise HadimError(why)
     _check_envs(algo, n_envs)

@@ -118,7 +118,7 @@ def value_scale(session, contexts: np.ndarray, returns: np.ndarray, rng: np.rand
         obs = _obs(env, row)
         if algo is Algorithm.Q_LEARNING:
             q = session.agent.q.table.get(session.agent.q.state(obs))
-            values.append(np.zeros(4) if q is None else q)
+            values.append(np.zeros(session.agent.q.n_actions) if q is None else q)
         else:
             import torch
 

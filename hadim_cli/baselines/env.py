@@ -50,7 +50,7 @@ from hadim_cli.config import Body, WorldConfig
 from hadim_cli.errors import HadimError
 from hadim_cli.world.actions import ROVER_ACTIONS
 from hadim_cli.world.environment import make_world
-from hadim_cli.world.layout import ObservationLayout, Property
+from hadim_cli.world.layout import ObservationLayout, Property, SpaceSpec
 from hadim_cli.world.scene import ArmScene, ObjectSpec, Scene
 
 MAX_STEPS = 1000
@@ -219,6 +219,16 @@ class GoalWorldEnv(gym.Env):
             names += [f"{s.entity}.{v}" for v in values]
         return names + ["goal.x", "goal.y"]
 
+    @property
+    def observed(self) -> tuple[tuple[SpaceSpec, slice], ...]:
+        """Each space an observation holds, as its world declares it (entity, property,
+        bounds), with its columns in `observation_space["observation"]`."""
+        out, start = [], 0
+        for s in self._observed:
+            out.append((s, slice(start, start + s.dim)))
+            start += s.dim
+        return tuple(out)
+
     def position_columns(self, entity: int) -> slice:
         """Where entity `entity` (0: the actor) of the layout has its position in an
         observation (`observation_space["observation"]`)."""
@@ -275,7 +285,7 @@ class GoalWorldEnv(gym.Env):
         return self._observation()
 
 
-def _observed(lay: ObservationLayout) -> list:
+def _observed(lay: ObservationLayout) -> list[SpaceSpec]:
     """The spaces an observation holds: the actor's position and pose (`POSE`), then each
     object's position."""
     actor = [lay.space(lay.actor, Property.POSITION)]

@@ -1,11 +1,14 @@
 """Tabular Q-learning as a UVFA (the goal is part of the state), ours, in numpy.
 
-Ω is discretised uniformly, as the paper does "when required": every position (the robot's,
-each object's and the goal) into `cells` × `cells` squares of the room, the robot's heading
-into `headings` sectors; a state is the tuple of those indices, packed into one integer. The
-table holds only the states visited (a dict), and is checkpointed as two arrays (state keys,
-their 4 action values). Exploration is ε-greedy with ε decaying linearly from 1 to `eps_end`
-over `eps_fraction` of the run's horizon, as SB3's DQN; all draws come from the agent's own
+Ω is discretised uniformly, as the paper does "when required", from what the environment's
+world declares for the observation the task reads (`Grid`): every position (the actor's, each
+object's and the goal) into `cells` × `cells` squares of its bounds, every direction of the
+body (the rover's heading, the arm's orientation) into `headings` sectors of the turn, and
+every joint angle (the arm's bends) into `headings` bins of its range; a state is the tuple of
+those indices, packed into one integer. The table holds only the states visited (a dict), and
+is checkpointed as two arrays (state keys, their action values, one per discrete move the
+world declares). Exploration is ε-greedy with ε decaying linearly from 1 to `eps_end` over
+`eps_fraction` of the run's horizon, as SB3's DQN; all draws come from the agent's own
 `numpy.random.Generator`.
 """
 
@@ -17,7 +20,11 @@ from typing import Any
 
 import numpy as np
 
-from hadim_cli.baselines.tasks import HALF_ROOM
+from hadim_cli.errors import HadimError
+from hadim_cli.world.layout import Property
+
+DIRECTIONS = (Property.HEADING, Property.ORIENTATION)
+"""Directions of the body, as (cos, sin): cut into sectors of the whole turn."""
 
 
 @dataclass(frozen=True)
@@ -29,32 +36,85 @@ class QLearningParams:
     """Squares per side of the room for every position (0.2 m in a 4 m room: the goal
     zone's diameter)."""
     headings: int = 16
-    """Sectors of the robot's heading."""
+    """Sectors of every angle the body declares: of the whole turn for a direction (the
+    rover's heading, the arm's orientation), of its range for a joint's bend."""
     eps_end: float = 0.05
     eps_fraction: float = 0.1
     frame: str = "room"
     """How Ω is discretised: "room" (the paper's: every position in the room's grid, the
-    heading in sectors) or "robot" (each object and the goal seen from the robot: bearing in
-    `headings` sectors of the robot's frame, distance in the `DISTANCES` rings)."""
+    body's angles in sectors) or "robot" (each object and the goal seen from the actor:
+    bearing in `headings` sectors of the frame of the body's direction, distance in the
+    `DISTANCES` rings; a joint's bend as in "room")."""
 
 
 DISTANCES = (0.1, 0.2, 0.3, 0.5, 0.8, 1.2, 2.0)
 """Ring edges (m) of the robot-frame discretisation: finer near, where the goal zone is."""
 
 
-def robot_frame_cells(obs: dict[str, np.ndarray], headings: int) -> list[int]:
-    """(sector, ring) of each object relative to the robot, then of the goal relative to the
-    goal entity (the achieved goal), in the robot's frame."""
+@dataclass(frozen=True)
+class Grid:
+    """Where a goal environment's observation holds what Ω is cut by, with the bounds its
+    world declares: no body named, so any world's environment is discretised alike."""
+
+    positions: np.ndarray
+    """Columns of every position coordinate: the actor's (x, y), then each object's."""
+    low: np.ndarray
+    """Lower bound of each of those coordinates, then of the goal's (x, y)."""
+    span: np.ndarray
+    """Width of each one's bounds."""
+    directions: tuple[tuple[int, int], ...]
+    """(cos, sin) columns of each direction of the body."""
+    angles: tuple[tuple[int, float, float], ...]
+    """(column, low, high) of each joint angle."""
+
+    @classmethod
+    def of(cls, env) -> Grid:
+        """The grid of a `GoalWorldEnv` (`env.observed`: its spaces and their columns)."""
+        positions, bounds, directions, angles = [], [], [], []
+        for spec, cols in env.observed:
+            index = list(range(cols.start, cols.stop))
+            if spec.prop is Property.POSITION:
+                positions += index
+                bounds += list(zip(spec.low, spec.high, strict=True))
+            elif spec.prop in DIRECTIONS:
+                directions.append((index[0], index[1]))
+            else:  # a joint's bend in its range (`Property.JOINTS`)
+                angles += [(i, float(lo), float(hi))
+                           for i, lo, hi in zip(index, spec.low, spec.high, strict=True)]
+        goal = env.observation_space["desired_goal"]
+        bounds += list(zip(goal.low.tolist(), goal.high.tolist(), strict=True))
+        low, high = (np.array(b, dtype=np.float64) for b in zip(*bounds, strict=True))
+        return cls(np.array(positions, dtype=np.intp), low, high - low, tuple(directions),
+                   tuple(angles))
+
+    def angle_bins(self, o: np.ndarray, n: int) -> list[int]:
+        """Each direction's sector of the whole turn, then each joint's bin of its range."""
+        bins = [int((math.atan2(float(o[s]), float(o[c])) + math.pi) / (2 * math.pi) * n) % n
+                for c, s in self.directions]
+        bins += [min(n - 1, max(0, int((float(o[i]) - lo) / (hi - lo) * n)))
+                 for i, lo, hi in self.angles]
+        return bins
+
+
+def robot_frame_cells(obs: dict[str, np.ndarray], headings: int, grid: Grid) -> list[int]:
+    """(sector, ring) of each object relative to the actor, then of the goal relative to the
+    goal entity (the achieved goal), in the frame of the body's first direction; then each
+    joint's bin."""
+    if not grid.directions:
+        raise HadimError("q-learning's robot frame turns with a direction of the body (a "
+                         "heading or an orientation); this world declares none")
     o, g = obs["observation"].astype(np.float64), obs["desired_goal"].astype(np.float64)
-    heading = math.atan2(o[3], o[2])
-    vectors = [o[4 + 2 * k: 6 + 2 * k] - o[:2] for k in range((len(o) - 4) // 2)]
+    c, s = grid.directions[0]
+    heading = math.atan2(o[s], o[c])
+    points = o[grid.positions]
+    vectors = [points[2 * k: 2 * k + 2] - points[:2] for k in range(1, len(points) // 2)]
     vectors.append(g - obs["achieved_goal"].astype(np.float64))
     cells = []
     for v in vectors:
         bearing = (math.atan2(v[1], v[0]) - heading + math.pi) % (2 * math.pi)
         cells.append(int(bearing / (2 * math.pi) * headings) % headings)
         cells.append(int(np.searchsorted(DISTANCES, math.hypot(v[0], v[1]))))
-    return cells
+    return cells + grid.angle_bins(o, headings)[len(grid.directions):]
 
 
 class TabularQ:
@@ -66,6 +126,7 @@ class TabularQ:
         self.horizon = horizon
         self.rng = rng
         self.n_actions = int(env.action_space.n)
+        self.grid = Grid.of(env)
         self.table: dict[int, np.ndarray] = {}
         self.iterations = 0
         self.episodes = 0
@@ -76,16 +137,16 @@ class TabularQ:
     def state(self, obs: dict[str, np.ndarray]) -> int:
         if self.p.frame == "robot":
             key = 0
-            for c in robot_frame_cells(obs, self.p.headings):
+            for c in robot_frame_cells(obs, self.p.headings, self.grid):
                 key = key * max(self.p.headings, len(DISTANCES) + 1) + c
             return key
         o, g = obs["observation"], obs["desired_goal"]
-        points = np.concatenate([o[:2], o[4:], g]).astype(np.float64)
-        cells = np.clip(((points + HALF_ROOM) / (2 * HALF_ROOM) * self.p.cells).astype(int),
+        points = np.concatenate([o[self.grid.positions], g]).astype(np.float64)
+        cells = np.clip(((points - self.grid.low) / self.grid.span * self.p.cells).astype(int),
                         0, self.p.cells - 1)
-        sector = int((math.atan2(float(o[3]), float(o[2])) + math.pi)
-                     / (2 * math.pi) * self.p.headings) % self.p.headings
-        key = sector
+        key = 0
+        for b in self.grid.angle_bins(o, self.p.headings):
+            key = key * self.p.headings + b
         for c in cells.tolist():
             key = key * self.p.cells + c
         return key

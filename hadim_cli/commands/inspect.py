@@ -212,10 +212,12 @@ def affordances(
         typer.echo(json.dumps(rows, indent=2))
     else:
         from hadim_cli.config import stored_config
-        from hadim_cli.reports import probed_on_task, render_h_table
+        from hadim_cli.reports import probed_on_task, render_h_table, rows_shown
+        from hadim_cli.world.layout import actor_of
 
-        render_h_table(_console(), rows, iteration,
-                       probed_on_task(stored_config(record.config).world))
+        world = stored_config(record.config).world
+        render_h_table(_console(), rows_shown(rows, actor_of(world.body)), iteration,
+                       probed_on_task(world))
 
 
 def _learner_run(st, run: str | None, at: int | None, what: str):
@@ -232,18 +234,23 @@ def _learner_run(st, run: str | None, at: int | None, what: str):
 
 
 def _show_timeline(events, record, at: int | None, out: Path | None, as_json: bool) -> None:
-    from hadim_cli.reports import render_timeline
+    """The timeline as a table or JSON (the stored names), and its figure; the table and the
+    figure name the actor as the run's world does."""
+    from hadim_cli.config import stored_config
+    from hadim_cli.reports import events_shown, render_timeline
+    from hadim_cli.world.layout import actor_of
 
+    shown = events_shown(events, actor_of(stored_config(record.config).world.body))
     if out is not None:
         from hadim_cli.plots import timeline_figure
 
-        timeline_figure(events, record.iterations if at is None else at, out,
+        timeline_figure(shown, record.iterations if at is None else at, out,
                         title=f"run {record.name}: affordance timeline")
         typer.echo(f"wrote {out}", err=as_json)  # stdout stays pure JSON with --json
     if as_json:
         typer.echo(json.dumps([_event_json(e) for e in events], indent=2))
     else:
-        render_timeline(_console(), events)
+        render_timeline(_console(), shown)
 
 
 def _show_models(session, pa: bool, as_json: bool) -> None:
@@ -258,13 +265,14 @@ def _show_models(session, pa: bool, as_json: bool) -> None:
         else:
             render_p_a(_console(), found, session.iteration)
         return
-    from hadim_cli.reports import error_rows, render_errors
+    from hadim_cli.reports import error_rows, render_errors, rows_shown
 
     rows = error_rows(session)
     if as_json:
         typer.echo(json.dumps(rows, indent=2))
     else:
-        render_errors(_console(), rows, session.iteration)
+        render_errors(_console(), rows_shown(rows, session.world.layout.actor),
+                      session.iteration)
 
 
 def _event_json(e) -> dict:
@@ -319,7 +327,8 @@ def eval_cmd(
     if animate is not None:
         from hadim_cli.evaluation.animate import animate as draw
 
-        draw(result.recordings, session.world.layout, animate)
+        # The world's config draws its body (an arm's links); the rover's ignores it.
+        draw(result.recordings, session.world.layout, animate, arm=session.config.world.arm)
     if as_json:
         payload = result.to_dict()
         payload["iteration"] = session.iteration

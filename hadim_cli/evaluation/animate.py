@@ -1,10 +1,11 @@
 """Animations of evaluation episodes: what the planner did, action by action.
 
 Each frame shows the part of the room (or table) where the point's attempt happens: every
-object, the body's actor (the robot and its heading, the arm's effector), the paths so far
-(the actor's solid, moved objects dashed), the point to
-reach (a star), and what the planner was pursuing when it chose the action — each level's
-goal as a marker, and the chain of affordances as text. Frames are drawn with matplotlib's
+object, the body as its world declares it (`render.draw_actor`: the robot and its heading;
+the arm's base, links, joints and effector, posed by the observed orientation and joints),
+the paths so far (the actor's solid, moved objects dashed), the point to reach (a star), and
+what the planner was pursuing when it chose the action — each level's goal as a marker, and
+the chain of affordances as text. Frames are drawn with matplotlib's
 `Figure` (no pyplot) and written as one GIF by Pillow; the same recordings give the same bytes.
 """
 
@@ -15,19 +16,25 @@ from pathlib import Path
 
 import numpy as np
 
+from hadim_cli.config import ArmConfig
 from hadim_cli.evaluation.runner import Recording
+from hadim_cli.learner.spaces import shown_as
 from hadim_cli.world.layout import ObservationLayout, Property
+from hadim_cli.world.render import arm_points, draw_actor, draws_arm, ground
 
 _GOAL_COLOURS = ("tab:blue", "tab:purple", "tab:orange", "tab:cyan", "tab:brown")
 
 
-def _box(layout: ObservationLayout, rec: Recording, margin: float = 0.45
-         ) -> tuple[float, float, float, float]:
-    """A square around everything that moves in `rec` and the point, within the room."""
+def _box(layout: ObservationLayout, rec: Recording, arm: ArmConfig | None,
+         margin: float = 0.45) -> tuple[float, float, float, float]:
+    """A square around everything that moves in `rec` and the point (an arm's every link
+    too), within the room."""
     spans = [np.asarray(rec.point)[None]]
     for i, entity in enumerate(layout.entities):
         if i in (0, rec.entity, rec.target, rec.tool):
             spans.append(rec.observations[:, layout.space(entity, Property.POSITION).slice])
+    if arm is not None and draws_arm(layout):
+        spans += [arm_points(layout, obs, arm) for obs in rec.observations]
     pts = np.concatenate(spans)
     lo, hi = pts.min(0) - margin, pts.max(0) + margin
     size = float(max(hi - lo))
@@ -39,22 +46,21 @@ def _box(layout: ObservationLayout, rec: Recording, margin: float = 0.45
 
 
 def _frame(fig, layout: ObservationLayout, rec: Recording, t: int, title: str,
-           box: tuple[float, float, float, float]) -> np.ndarray:
-    from matplotlib.patches import Circle, Rectangle
+           box: tuple[float, float, float, float], arm: ArmConfig | None) -> np.ndarray:
+    from matplotlib.patches import Circle
 
     fig.clear()
     ax = fig.add_axes((0.08, 0.2, 0.88, 0.72))
     obs = rec.observations[t]
     actor = layout.actor
-    half_w, half_h = layout.space(actor, Property.POSITION).high
-    ax.add_patch(Rectangle((-half_w, -half_h), 2 * half_w, 2 * half_h, fill=False,
-                           edgecolor="dimgray", lw=4))
+    ground(ax, layout, arm)
     for entity in layout.entities:
         pos = layout.get(obs, entity, Property.POSITION)
-        radius = float(layout.get(obs, entity, Property.RADIUS)[0])
         colour = np.clip(layout.get(obs, entity, Property.COLOR), 0.0, 1.0)
-        ax.add_patch(Circle(tuple(pos), radius, facecolor=colour, edgecolor="black", lw=0.8,
-                            zorder=3))
+        if entity != actor:
+            radius = float(layout.get(obs, entity, Property.RADIUS)[0])
+            ax.add_patch(Circle(tuple(pos), radius, facecolor=colour, edgecolor="black",
+                                lw=0.8, zorder=3))
         path = rec.observations[:t + 1, layout.space(entity, Property.POSITION).slice]
         if entity == actor or np.abs(np.diff(path, axis=0)).sum() > 1e-3:
             ax.plot(path[:, 0], path[:, 1], color="black" if entity == actor else colour,
@@ -63,11 +69,7 @@ def _frame(fig, layout: ObservationLayout, rec: Recording, t: int, title: str,
             role = {rec.target: "target", rec.tool: "tool"}.get(layout.entities.index(entity))
             if role:
                 ax.annotate(role, tuple(pos), ha="center", va="center", fontsize=7, zorder=5)
-    if layout.has(actor, Property.HEADING):  # the rover's: a line the way it faces
-        x, y = layout.get(obs, actor, Property.POSITION)
-        r = float(layout.get(obs, actor, Property.RADIUS)[0])
-        hx, hy = layout.get(obs, actor, Property.HEADING)
-        ax.plot([x, x + 1.3 * r * hx], [y, y + 1.3 * r * hy], color="white", lw=2, zorder=4)
+    draw_actor(ax, layout, obs, arm, label=False, scale=0.6)
     ax.scatter([rec.point[0]], [rec.point[1]], marker="*", s=180, color="gold",
                edgecolor="black", zorder=6)
     lines = []
@@ -75,7 +77,7 @@ def _frame(fig, layout: ObservationLayout, rec: Recording, t: int, title: str,
         step = rec.steps[t - 1]
         for i, (label, goal) in enumerate(zip(step.labels, step.goals, strict=True)):
             colour = _GOAL_COLOURS[i % len(_GOAL_COLOURS)]
-            lines.append(("  " * i) + label)
+            lines.append(("  " * i) + shown_as(label, actor))
             if len(goal) == 2 and "heading" not in label:
                 ax.scatter([goal[0]], [goal[1]], marker="x", s=60, color=colour, zorder=7)
     ax.set_xlim(box[0], box[1])
@@ -90,26 +92,29 @@ def _frame(fig, layout: ObservationLayout, rec: Recording, t: int, title: str,
 
 
 def animate(recordings: Sequence[Recording], layout: ObservationLayout, path: Path | str, *,
-            ms_per_frame: int = 250, hold: int = 4) -> Path:
+            arm: ArmConfig | None = None, ms_per_frame: int = 250, hold: int = 4) -> Path:
     """Write every recording's attempt, one after another, as a looping GIF at `path`, one
-    frame per observation; the last frame of each point is shown `hold` times as long."""
+    frame per observation; the last frame of each point is shown `hold` times as long. An
+    arm's observations need `arm` (its link lengths and base)."""
     from matplotlib.backends.backend_agg import FigureCanvasAgg
     from matplotlib.figure import Figure
     from PIL import Image
 
     if not recordings:
         raise ValueError("no recordings to animate")
+    if draws_arm(layout) and arm is None:
+        raise ValueError("animating an arm's observations needs its config (arm=)")
     fig = Figure(figsize=(4.8, 5.6), dpi=80)
     FigureCanvasAgg(fig)
     frames, durations = [], []
     for i, rec in enumerate(recordings):
-        box = _box(layout, rec)
+        box = _box(layout, rec, arm)
         n = rec.observations.shape[0]
         for t in range(n):
             verdict = " — touched the target: failed" if rec.contact_failed and t == n - 1 else ""
             title = (f"{rec.task} · point {i + 1}/{len(recordings)} {rec.point} · "
                      f"action {t}/{n - 1}{verdict}")
-            frames.append(_frame(fig, layout, rec, t, title, box))
+            frames.append(_frame(fig, layout, rec, t, title, box, arm))
             durations.append(ms_per_frame * (hold if t == n - 1 else 1))
     images = [Image.fromarray(f) for f in frames]
     path = Path(path)

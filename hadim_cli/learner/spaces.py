@@ -76,6 +76,36 @@ def parse_space(name: str) -> RoleSpace:
     return RoleSpace(Role(role), Property(prop))
 
 
+def shown_as(text: str, actor: str) -> str:
+    """`text` — a space's stored name, or words holding such names and roles (a controller's
+    label, `place robot for A2`) — as a reader of a run of this world wants it: the actor's
+    role called what the world calls its actor (`robot.joints` → `effector.joints`,
+    `target-robot` → `target-effector`); the rover's text unchanged. For display only: runs
+    store, and `parse_space` reads, the role's own name."""
+    if actor == Role.ROBOT.value:
+        return text
+    return " ".join(_shown_word(word, actor) for word in text.split(" "))
+
+
+def _shown_word(word: str, actor: str) -> str:
+    if word == Role.ROBOT.value:
+        return actor
+    try:
+        space = parse_space(word)
+    except ValueError:
+        return word
+    if space.role is Role.ACTION:
+        return word
+
+    def role(r: Role) -> str:
+        return actor if r is Role.ROBOT else r.value
+
+    if space.relative_to is not None:
+        return f"{role(space.role)}-{role(space.relative_to)}"
+    assert space.prop is not None
+    return f"{role(space.role)}.{space.prop.value}"
+
+
 def actor_contexts(layout: ObservationLayout) -> tuple[Property, ...]:
     """The actor's properties that can tell two situations apart: every one the world declares
     for it but its looks (which never change), in name order — the rover's heading, LIDAR and

@@ -20,6 +20,13 @@ EFFECTOR = "effector"
 """The arm's actor: its end effector."""
 
 
+def actor_of(body: str) -> str:
+    """What the world of `body` (a `config.Body` value) calls its actor, entity 0 of its
+    layout, for a reader that builds no world (a stored run's tables); each world's layout
+    names it so (tested)."""
+    return {"rover": ROBOT, "arm": EFFECTOR}[str(body)]
+
+
 def object_name(index: int) -> str:
     """Name of the object entity `index` (0-based): obj1, obj2, …"""
     return f"obj{index + 1}"

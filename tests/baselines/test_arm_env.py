@@ -140,14 +140,97 @@ def test_a_baseline_trains_and_is_evaluated_on_an_arm_task_through_the_cli(tmp_p
         np.testing.assert_allclose(p["start"], [obj.x, obj.y], atol=1e-3)
 
 
-def test_q_learning_is_refused_on_the_arm_in_one_line(tmp_path):
+def test_q_learning_trains_evaluates_and_resumes_on_the_arm_through_the_cli(tmp_path):
+    """`hadim baseline train --algo q-learning --task reach`: a table of the arm's six moves,
+    evaluated on the arm's task, and a run resumed half-way ends with the same table."""
+    import json
+
+    from hadim_store import Store
+
     store = tmp_path / "arm.sqlite"
-    result = _cli("baseline", "train", "--algo", "q-learning", "--task", "reach", "-n", 40,
-                  "--store", store)
-    assert result.exit_code == 2
-    lines = result.stderr.strip().splitlines()
-    assert len(lines) == 1 and lines[0].startswith("error: ") and "q-learning" in lines[0]
-    assert not store.exists()
+    common = ("--algo", "q-learning", "--task", "reach", "--eval-every", 20,
+              "--episode-length", 20, "--store", store)
+    result = _cli("baseline", "train", *common, "-n", 40, "--name", "straight")
+    assert result.exit_code == 0, (result.stderr, result.exception)
+    assert _cli("baseline", "train", *common, "-n", 20, "--name", "resumed").exit_code == 0
+    assert _cli("resume", "resumed", "--iterations", 40, "--store", store).exit_code == 0
+    out = _cli("eval", "straight", "--task", "reach", "--json", "--store", store)
+    assert out.exit_code == 0, out.stderr
+    evaluated = json.loads(out.stdout)
+    assert evaluated["actor"] == "effector" and len(evaluated["points"]) == 8
+    with Store.open(store) as st:
+        a, b = st.checkpoint("straight"), st.checkpoint("resumed")
+        assert [e.task for e in st.evaluations("straight")][:2] == ["reach", "reach@20"]
+    assert a.arrays["q.values"].shape[1] == 6 and len(a.arrays["q.keys"]) > 1
+    assert all(a.arrays[k].tobytes() == b.arrays[k].tobytes() for k in a.arrays)
+
+
+def _arm_state(env: GoalWorldEnv, obs: dict, joints, objects=None, goal=None) -> dict:
+    """`obs` with the arm posed by `joints` (the effector where they put it), the objects
+    and the goal moved where given."""
+    obs = {k: v.copy() for k, v in obs.items()}
+    o = obs["observation"]
+    q = np.asarray(joints, dtype=np.float64)
+    cols = {(s.entity, s.prop): c for s, c in env.observed}
+    o[cols[("effector", Property.POSITION)]] = effector_position((0.6, 0.5, 0.4), q)
+    o[cols[("effector", Property.ORIENTATION)]] = (np.cos(q[0]), np.sin(q[0]))
+    o[cols[("effector", Property.JOINTS)]] = q[1:]
+    for i, xy in enumerate(objects or ()):
+        o[cols[(f"obj{i + 1}", Property.POSITION)]] = xy
+    if goal is not None:
+        obs["desired_goal"] = np.asarray(goal, dtype=np.float32)
+    return obs
+
+
+def test_q_learning_s_states_separate_what_the_arm_tells_apart():
+    """The table's grid comes from what the arm's world declares: the effector's place, the
+    arm's orientation in sectors, each bend in bins of its range, the objects read after the
+    joints, the goal. Poses the effector's place alone cannot tell apart are two states; what
+    the grid is too coarse to see (a bend within its bin) is one."""
+    from hadim_cli.baselines.qlearning import QLearningParams, TabularQ
+
+    env = arm_env("arm-push")
+    table = TabularQ(env, QLearningParams(), 100, np.random.default_rng(0))
+    obs, _ = env.reset(seed=2)
+    objects, goal = [(-1.0, -1.0)], (-0.5, -1.0)
+
+    def key(joints, objects=objects, goal=goal) -> int:
+        return table.state(_arm_state(env, obs, joints, objects, goal))
+
+    # The elbow and the wrist bent one way, then mirrored about the line from the base to the
+    # effector: the effector at the same place, the arm turned within one sector.
+    sector = 2 * np.pi / 16
+    pose = np.array([-np.pi + 9 * sector + 0.05, 0.3, -0.3])
+    reach = effector_position((0.6, 0.5, 0.4), pose)
+    mirrored = np.array([2 * np.arctan2(reach[1], reach[0]) - pose[0], -0.3, 0.3])
+    np.testing.assert_allclose(effector_position((0.6, 0.5, 0.4), mirrored), reach, atol=1e-12)
+    assert np.floor((mirrored[0] + np.pi) / sector) == np.floor((pose[0] + np.pi) / sector)
+    assert key(pose) != key(mirrored)
+    assert key(pose) != key(pose + [sector, 0.0, 0.0])  # turned into the next sector
+    assert key(pose) != key(pose, objects=[(-1.0, -0.7)])  # the target in another cell
+    assert key(pose) != key(pose, goal=(-0.5, -0.7))
+    # A bend moved anywhere within one bin of its range (0.25 rad: 16 bins of ±2 rad), all
+    # else unmoved: the same state.
+    state = _arm_state(env, obs, [0.1, 0.26, 0.5], objects, goal)
+    moved = {k: v.copy() for k, v in state.items()}
+    moved["observation"][dict((s.prop, c) for s, c in env.observed)[Property.JOINTS]] = (
+        0.49, 0.5)
+    assert table.state(state) == table.state(moved)
+
+
+def test_q_learning_s_robot_frame_on_the_arm_turns_with_its_orientation():
+    """The fixed variant's grid on the arm: the target and the goal seen in the frame of the
+    arm's orientation (bearing sector, distance ring), then each bend's bin."""
+    from hadim_cli.baselines.qlearning import Grid, robot_frame_cells
+
+    env = arm_env("arm-push")
+    obs, _ = env.reset(seed=2)
+    grid = Grid.of(env)
+    # The arm straight along +y, the target 0.4 m to its left (−x), the goal 0.25 m ahead
+    # of the target (its +y).
+    state = _arm_state(env, obs, [np.pi / 2, 0.0, 0.0], [(-0.4, 1.5)], (-0.4, 1.75))
+    state["achieved_goal"] = np.array([-0.4, 1.5], np.float32)
+    assert robot_frame_cells(state, 16, grid) == [12, 3, 8, 2, 8, 8]
 
 
 def test_curious_reads_each_module_s_entity_where_the_arm_s_observation_holds_it():

@@ -17,8 +17,9 @@ from hadim_cli.baselines import grid
 from hadim_cli.baselines import runs as baseline_runs
 from hadim_cli.baselines.config import make_config
 from hadim_cli.baselines.diagnose import training_blocks
+from hadim_cli.baselines.env import GoalWorldEnv
 from hadim_cli.baselines.features import goal_frame
-from hadim_cli.baselines.qlearning import robot_frame_cells
+from hadim_cli.baselines.qlearning import Grid, robot_frame_cells
 from hadim_cli.baselines.variants import Variant, apply_variant
 from hadim_cli.config import WorldConfig
 from hadim_cli.evaluation.metric import (
@@ -180,7 +181,8 @@ def test_the_goal_in_the_robots_frame():
     np.testing.assert_allclose(rel, [0.0, -0.2, 0.5, 0.0], atol=1e-6)  # right is −y
     cells = robot_frame_cells({"observation": np.array([0, 0, 1, 0], np.float32),
                                "achieved_goal": np.zeros(2, np.float32),
-                               "desired_goal": np.array([0.0, 0.4], np.float32)}, 16)
+                               "desired_goal": np.array([0.0, 0.4], np.float32)}, 16,
+                              Grid.of(GoalWorldEnv("move-robot")))
     assert cells == [12, 3]  # 90° to the left: sector 12 of 16 (−π … π); ring 3: 0.3–0.5 m
 
 
