@@ -1,5 +1,6 @@
-"""p_A asked about probes: the entities of the push-object task's scene (the reference scene:
-6 green, 3 red objects and the robot) and objects of shades and sizes the world never draws.
+"""p_A asked about probes: the entities of a reference scene (`reports.probe_scene`: the
+rover's push-object task's, 6 green, 3 red objects and the robot; another body's scene of seed
+0) and objects of shades and sizes the world never draws.
 
 `hadim affordances RUN --pa` renders it. A probe's features are read from an observation of a
 real `World` (`SpaceReader.visual_features`, p_A's one definition of its input), so a probe is
@@ -9,11 +10,12 @@ seen exactly as an object of a learning episode would be.
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
+from hadim_cli.world.layout import Property
 from hadim_cli.world.scene import ObjectSpec, Scene
 
 if TYPE_CHECKING:  # the learner (and torch) only where p_A is asked
@@ -77,22 +79,26 @@ def unseen_size(config: WorldConfig, u: Unseen) -> tuple[float, float]:
             _scaled(config.object_height_min, config.object_height_max, u.height))
 
 
-def unseen_scenes(config: WorldConfig, unseen: tuple[Unseen, ...] = UNSEEN) -> list[Scene]:
-    """Scenes holding every `unseen` object (a scene has the layout's number of objects: the
-    last ones are repeated to fill it), on a ring round the robot."""
-    n = config.n_green + config.n_red
+def unseen_scenes(world, unseen: tuple[Unseen, ...] = UNSEEN) -> list[Any]:
+    """Scenes of `world` holding every `unseen` object (a scene has the layout's number of
+    objects: the last ones are repeated to fill it), on a ring 0.7 m inside the bounds of the
+    objects' positions, the body posed as in its scene of seed 0."""
+    config, layout = world.config, world.layout
+    n = len(layout.objects)
+    bounds = layout.space(layout.objects[0], Property.POSITION)
+    ring = min(min(abs(v) for v in bounds.low), min(bounds.high)) - 0.7
+    pose = world.draw_scene(np.random.default_rng(0))
     scenes = []
     for start in range(0, len(unseen), n):
         chunk = list(unseen[start:start + n])
         chunk += [chunk[-1]] * (n - len(chunk))
-        ring = min(config.room_width, config.room_height) / 2 - 0.7
         objects = []
         for i, u in enumerate(chunk):
             r, h = unseen_size(config, u)
             a = 2 * math.pi * i / n
             objects.append(ObjectSpec(ring * math.cos(a), ring * math.sin(a), r, h, u.color,
                                       u.pushable))
-        scenes.append(Scene(tuple(objects)))
+        scenes.append(replace(pose, objects=tuple(objects)))
     return scenes
 
 
@@ -116,7 +122,7 @@ def unseen_probes(world, reader: SpaceReader, unseen: tuple[Unseen, ...] = UNSEE
                   ) -> list[Probe]:
     """The `unseen` objects as the robot would see them."""
     out: list[Probe] = []
-    for k, scene in enumerate(unseen_scenes(world.config, unseen)):
+    for k, scene in enumerate(unseen_scenes(world, unseen)):
         feats = _features(world, reader, scene)[1:]  # not the robot
         chunk = unseen[k * len(feats):(k + 1) * len(feats)]
         out += [Probe(u.name, f, u.pushable) for u, f in zip(chunk, feats, strict=False)]
@@ -153,13 +159,13 @@ def _ask(aff: Affordance, probes: list[Probe]) -> tuple[dict[str, float], tuple[
 
 def verdicts(session: Session) -> list[Verdict]:
     """p_A of every affordance of H that has one, on the reference scene and unseen objects."""
-    from hadim_cli.evaluation.tasks import load_task
     from hadim_cli.learner.spaces import SpaceReader
-    from hadim_cli.world.world import World
+    from hadim_cli.reports import probe_scene
+    from hadim_cli.world.environment import make_world
 
-    world = World(session.config.world)
+    world = make_world(session.config.world)
     reader = SpaceReader(world.layout)  # p_A's features do not depend on the relations' offset
-    scene = scene_probes(world, reader, load_task("push-object").scene)
+    scene = scene_probes(world, reader, probe_scene(world))
     unseen = unseen_probes(world, reader)
     robot = scene[0].features
     out = []

@@ -72,17 +72,25 @@ def probed_on_task(world: WorldConfig) -> bool:
     return fits_body(load_task("push-object"), world)
 
 
-def affordance_rows(session: Session) -> list[dict[str, Any]]:
-    """H as plain rows; p_A is asked about every entity of one scene (`probed_on_task`)."""
+def probe_scene(world):
+    """The scene p_A is asked about in `world` (`probed_on_task`): the push-object task's,
+    or the world's scene of seed 0."""
     from hadim_cli.evaluation.tasks import load_task
+
+    if probed_on_task(world.config):
+        return load_task("push-object").scene
+    return world.draw_scene(np.random.default_rng(0))
+
+
+def affordance_rows(session: Session) -> list[dict[str, Any]]:
+    """H as plain rows; p_A is asked about every entity of one scene (`probe_scene`)."""
     from hadim_cli.learner.competence import split_zero  # scipy: only where H is computed
     from hadim_cli.learner.frames import FramedModel
     from hadim_cli.world.environment import make_world
 
     learner = session.learner
     world = make_world(session.config.world)
-    scene = (load_task("push-object").scene if probed_on_task(world.config)
-             else world.draw_scene(np.random.default_rng(0)))
+    scene = probe_scene(world)
     obs = world.reset(scene=scene)
     rows = []
     for aff in learner.hierarchy:

@@ -210,3 +210,40 @@ def test_exact_navigation_imagines_the_arm_by_its_kinematics(runner, arm_store):
              "--store", arm_store).stdout
     assert json.loads(out)["score"] >= 0.9
     assert snapshot(arm_store) == before
+
+
+def test_p_a_is_asked_about_the_arm_s_own_scene_and_objects_it_never_drew():
+    """`affordances --pa` on an arm run: p_A is asked about the effector and the objects of
+    the arm's scene of seed 0, and about the unseen objects, each read from an observation of
+    the arm's world (p_A's features as the arm's learner sees them)."""
+    from types import SimpleNamespace
+
+    from hadim_cli.learner.explorer import Learner
+    from hadim_cli.learner.spaces import Role, RoleSpace, Rows
+    from hadim_cli.pa_probes import UNSEEN, verdicts
+    from hadim_cli.world.layout import Property
+
+    config = load_config(configs_dir() / "arm.toml")
+    world = make_world(config.world)
+    learner = Learner(config.learner, world.layout, world.action_space)
+    rng = np.random.default_rng(0)
+    obs = world.reset(seed=0)
+    for _ in range(20):
+        after = world.step(world.action_space.sample(rng, 1)[0])
+        learner.dataset.append(np.zeros(world.action_space.dim), obs, after)
+        obs = after
+    t = np.arange(20)
+    push = learner.fitter.new_affordance(
+        0, RoleSpace(Role.ROBOT, Property.POSITION), RoleSpace(Role.TARGET, Property.POSITION),
+        (), Rows(t, np.ones(20, dtype=np.int64), np.full(20, -1)), 20, rng)
+    learner.hierarchy.add(push, 20)
+    (found,) = verdicts(SimpleNamespace(learner=learner, config=config))
+    scene = world.draw_scene(np.random.default_rng(0))
+    colours = ["green" if o.pushable else "red" for o in scene.objects]
+    assert list(found.scene) == ["effector"] + [f"obj{i + 1} ({c})"
+                                                 for i, c in enumerate(colours)]
+    assert list(found.unseen) == [u.name for u in UNSEEN]
+    probe = np.stack([learner.reader.visual_features(world.reset(scene=scene), i)
+                      for i in range(len(world.layout.entities))])
+    p = push.classifier.predict_proba(probe)
+    assert list(found.scene.values()) == [round(float(v), 4) for v in p]
