@@ -89,3 +89,23 @@ def test_a_run_without_a_checkpoint_starts_afresh_and_an_early_one_is_refused(tm
         assert fresh.world_rng.bit_generator.state == root[0].bit_generator.state
         with pytest.raises(HadimError, match="no checkpoint at or before iteration 5"):
             runs.restore_session(store, run, at=5)
+
+
+def test_the_stored_timeline_is_the_sessions_events(stored):
+    """`hadim timeline` reads H's changes from the store: each event of the session as it
+    happened — iteration, affordance, kind, input and output spaces, contexts, competence."""
+    store, run, session = stored
+    events = session.learner.hierarchy.events
+    assert events  # the affordances of H were created on the way
+    kept = store.events(run.name)
+    assert [(e.iteration, e.affordance_id, e.kind, e.input_space, e.output_space,
+             tuple(e.context), e.competence) for e in kept] == \
+        [(e.iteration, e.affordance_id, e.kind.value, e.input, e.output, e.contexts,
+          e.competence) for e in events]
+
+
+def test_a_run_records_the_versions_of_the_packages_its_numbers_depend_on():
+    from importlib import metadata
+
+    names = ("hadim", "numpy", "scipy", "torch", "pymunk", "sqlalchemy")
+    assert runs.package_versions() == {name: metadata.version(name) for name in names}
