@@ -398,3 +398,45 @@ def test_a_place_off_the_line_of_the_push_is_turned_with_the_wanted_move():
     assert action is not None
     (gap,) = decisions[0].gaps
     assert gap == pytest.approx(0.5, abs=1e-3)
+
+
+def test_a_detour_round_a_disc_passes_on_the_side_of_the_straight_line():
+    """The straight way passes 0.2 above the disc's centre: the way round starts up, over
+    the disc, and comes down to the end."""
+    frm, to = np.array([[-1.0, 0.2]]), np.array([[1.0, 0.2]])
+    _, first, last = detour(frm, to, np.zeros((1, 1, 2)), np.full((1, 1), 0.5))
+    assert first[0, 1] > 0.1 and last[0, 1] < -0.1
+
+
+def test_a_detour_between_points_opposite_across_a_discs_centre_is_its_tangents_and_half_arc():
+    """Start and end on one line through the centre, on either side (their directions from
+    it, in floating point, just past opposite): the way is two tangents and the arc between."""
+    v = np.array([0.1, 0.3])
+    frm, to, r = -0.6 * v[None], 0.6 * v[None], 0.1
+    length, first, last = detour(frm, to, np.zeros((1, 1, 2)), np.full((1, 1), r))
+    d = float(np.linalg.norm(0.6 * v))
+    touch = np.arccos(r / d)
+    assert length[0] == pytest.approx(2 * np.sqrt(d * d - r * r) + r * (np.pi - 2 * touch))
+    assert np.all(np.isfinite(first)) and np.all(np.isfinite(last))
+
+
+def test_a_robot_facing_its_way_to_its_place_pays_no_turn_whatever_the_push(rig):
+    """Behind obj1 but off the line of its goal, facing its place: the estimate is obj1's
+    way in pushes plus the robot's way to contact behind obj1 in drive steps — no turn, though
+    the push it will make then runs along another line."""
+    config, world, learner = rig
+    reader, push, drive = learner.reader, _push(learner), _mover(learner)
+    q, zero = config.planner.step_quantile, config.learner.zero_eps
+    obj = TASK.scene.objects[0]
+    goal, target = np.array([1.25, 0.0]), np.array([obj.x, obj.y])
+    place = target - (config.world.robot_radius + obj.radius) * np.array([1.0, 0.0])
+    robot = place + np.array([-0.3, 0.4])
+    toward = np.arctan2(*(place - robot)[::-1])
+    scene = dataclasses.replace(TASK.scene, robot_x=robot[0], robot_y=robot[1],
+                                robot_heading=toward)
+    obs, _, decision = _first_decision(world, learner.controller, push, Binding(target=1), goal,
+                                       scene)
+    expected = (np.linalg.norm(goal - reader.entity_position(obs, 1)) / typical_step(push, q, zero)
+                + np.linalg.norm(place - reader.entity_position(obs, 0))
+                / typical_step(drive, q, zero))
+    assert decision.to_go == pytest.approx(expected, rel=1e-3)
