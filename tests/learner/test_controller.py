@@ -440,3 +440,29 @@ def test_a_robot_facing_its_way_to_its_place_pays_no_turn_whatever_the_push(rig)
                 + np.linalg.norm(place - reader.entity_position(obs, 0))
                 / typical_step(drive, q, zero))
     assert decision.to_go == pytest.approx(expected, rel=1e-3)
+
+
+def test_an_exact_navigation_level_imagines_the_robots_turns_by_the_rooms_physics_too():
+    """A turner learned from rows that turn the other way (right wheel faster: a turn to the
+    right) turns a robot facing +x the wrong way towards a goal ahead on its left; with the
+    navigation level exact, its heading is imagined by the room's physics as well, and the
+    controller turns it left."""
+    room = Room()
+    rng = np.random.default_rng(2)
+    drive = room.affordance(room.moves(rng, 80), contexts=(ROBOT_HEADING,))
+    t = []
+    for _ in range(80):
+        theta, action = rng.uniform(-np.pi, np.pi), rng.uniform(-1.0, 1.0, 2)
+        room.set("robot", ROBOT_HEADING.prop, [np.cos(theta), np.sin(theta)])
+        before = room.obs.copy()
+        turned = theta - 0.3 * (action[1] - action[0])
+        room.set("robot", ROBOT_HEADING.prop, [np.cos(turned), np.sin(turned)])
+        t.append(room.dataset.append(action, before, room.obs.copy()))
+    room.affordance(np.array(t, dtype=np.int64), (ROBOT_HEADING,), out=ROBOT_HEADING)
+    room.place("robot", [0.0, 0.0])
+    room.set("robot", ROBOT_HEADING.prop, [1.0, 0.0])
+    controller, goal = room.learner.controller, np.array([0.3, 0.3])
+    learned = controller.act(room.obs, controller.pursue(drive, Binding(), goal, room.obs))
+    with exact_levels(room.learner, load_config().world, ("navigation",)):
+        exact = controller.act(room.obs, controller.pursue(drive, Binding(), goal, room.obs))
+    assert learned[0] > learned[1] and exact[1] > exact[0]
