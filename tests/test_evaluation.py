@@ -204,3 +204,54 @@ def test_a_heading_is_scored_by_the_share_of_its_angle_left_the_short_way_round(
     assert heading_error(0.3, 0.3 + 0.051, 0.3) == 1.0
     assert heading_error(0.3, 0.3 - 0.2, 0.3) == 1.0
     assert heading_error(0.3, 0.3 + 2.0, 0.3) == 1.0
+
+
+def test_each_action_is_counted_and_recorded_under_what_the_controller_served():
+    """A stand-in controller drives the robot straight ahead into obj1, towards push-line's
+    first point (ahead of obj1, on its line), telling the observer what each action serves:
+    two actions to its place, two pushes, one to its place again, one push. The point counts
+    its actions by label, most first; its trips (stretches of `place …` actions) with obj1's
+    remaining share when each began; how its first push was lined up (straight behind obj1,
+    along its way); no contact failed. The recording keeps each label with the observation
+    after its action."""
+    from dataclasses import replace
+
+    from hadim_cli.config import load_config
+    from hadim_cli.evaluation.runner import evaluate
+    from hadim_cli.learner.controller import Decision
+    from hadim_cli.learner.explorer import Learner
+    from hadim_cli.learner.goals import Attempt
+    from hadim_cli.learner.spaces import Rows, parse_space
+    from hadim_cli.world.world import World
+
+    config = load_config()
+    world = World(config.world)
+    learner = Learner(config.learner, world.layout, world.action_space)
+    aff = learner.fitter.new_affordance(learner.hierarchy.allocate_id(),
+                                        parse_space("robot.position"),
+                                        parse_space("target.position"), (), Rows.empty(), 0,
+                                        np.random.default_rng(0))
+    learner.hierarchy.add(aff, 0)
+    place, push = f"place robot for A{aff.id}", f"A{aff.id} target.position"
+    labels = [place, place, push, push, place, push]
+    ahead = np.array([1.0, 1.0])
+
+    def straight_ahead(aff, binding, goal, actuator, budget):
+        for label in labels:
+            learner.controller.observer(Decision(ahead, 0.0, 0.0, label))
+            actuator.act(ahead)
+        return Attempt(1.0, 1.0, actuator.used)
+
+    learner.controller.reach = straight_ahead
+    task = replace(load_task("push-line"), points=((1.25, 0.0),), budget=len(labels))
+    result = evaluate(learner, config.world, task, record=True)
+    (p,), (rec,) = result.points, result.recordings
+    assert p.actions == len(labels) and p.contact_failed is False
+    assert p.pursuits == {place: 3, push: 3} and list(p.pursuits) == sorted(p.pursuits)
+    assert p.trips == 2 and p.trip_starts[0] == 1.0 and 0.0 < p.trip_starts[1] < 1.0
+    assert p.first_push.pusher_off == pytest.approx(0.0, abs=1.0)
+    assert p.first_push.move_off == pytest.approx(0.0, abs=1.0)
+    assert [s.labels for s in rec.steps] == [(label,) for label in labels]
+    assert rec.observations.shape[0] == len(labels) + 1
+    np.testing.assert_array_equal(learner.reader.entity_position(rec.observations[-1], 1),
+                                  p.final)

@@ -64,3 +64,18 @@ def test_a_failing_evaluation_is_one_error_naming_its_iteration():
                                          r"HadimError: unknown task 'no-such-task'"):
         runs.train(None, None, Session(config(), SEED), 2 * EPISODE, eval_every=EPISODE,
                    tasks=("no-such-task",))
+
+
+def test_each_episodes_progress_carries_the_last_scores_handed_back_and_their_iteration():
+    """After the first episode the evaluation it started is still under way: no scores yet.
+    After the last, the evaluation started there has been waited for: its scores, and the
+    iteration they measured, are those of the learner evaluated in the training process."""
+    seen = []
+    runs.train(None, None, Session(config(), SEED), 2 * EPISODE, eval_every=EPISODE,
+               tasks=TASKS[:1], on_progress=seen.append)
+    assert [p.iteration for p in seen] == [EPISODE, 2 * EPISODE]
+    assert seen[0].scores == {} and seen[0].scored_at is None
+    here = Session(config(), SEED)
+    here.run(2 * EPISODE)
+    score = evaluate(here.learner, here.config.world, load_task(TASKS[0])).score
+    assert seen[1].scores == {TASKS[0]: score} and seen[1].scored_at == 2 * EPISODE

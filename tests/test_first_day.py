@@ -145,11 +145,23 @@ def test_a_store_damaged_where_its_schema_is_read_is_refused_as_damaged(store, t
     file: the same one-line refusal, nothing written, and `store check` names it (exit 1)."""
     copy = damaged_table(store, tmp_path, "meta")
     before = copy.read_bytes()
-    one_error_line(invoke("resume", "run-1", "-n", 150, "--store", copy), "is damaged")
+    one_error_line(invoke("resume", "run-1", "-n", 150, "--store", copy),
+                   "run run-1 untouched: the store is damaged")
     assert copy.read_bytes() == before
     result = invoke("store", "check", "--store", copy)
     assert result.exit_code == 1, result.output
     assert "damaged" in result.stdout and "runs not read" in result.stdout
+
+
+def test_a_database_errors_reason_is_its_first_line_without_the_rows_content():
+    """What a damage line quotes of an error: its first line, without the text of the row
+    SQLite could not decode, at most 60 characters (the last an ellipsis)."""
+    from hadim_cli.runs import short_reason
+
+    undecodable = ValueError("Could not decode to UTF-8 column 'x' with text 'secret row'\nmore")
+    assert short_reason(undecodable) == "Could not decode to UTF-8 column 'x'"
+    assert short_reason(ValueError("y" * 61)) == "y" * 59 + "…"
+    assert short_reason(ValueError("y" * 60)) == "y" * 60
 
 
 def test_store_check_names_what_is_damaged(store, tmp_path):

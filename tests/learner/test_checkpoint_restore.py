@@ -89,3 +89,70 @@ def test_a_run_without_a_checkpoint_starts_afresh_and_an_early_one_is_refused(tm
         assert fresh.world_rng.bit_generator.state == root[0].bit_generator.state
         with pytest.raises(HadimError, match="no checkpoint at or before iteration 5"):
             runs.restore_session(store, run, at=5)
+
+
+def test_the_stored_timeline_is_the_sessions_events(stored):
+    """`hadim timeline` reads H's changes from the store: each event of the session as it
+    happened — iteration, affordance, kind, input and output spaces, contexts, competence."""
+    store, run, session = stored
+    events = session.learner.hierarchy.events
+    assert events  # the affordances of H were created on the way
+    kept = store.events(run.name)
+    assert [(e.iteration, e.affordance_id, e.kind, e.input_space, e.output_space,
+             tuple(e.context), e.competence) for e in kept] == \
+        [(e.iteration, e.affordance_id, e.kind.value, e.input, e.output, e.contexts,
+          e.competence) for e in events]
+
+
+def test_a_run_records_the_versions_of_the_packages_its_numbers_depend_on():
+    from importlib import metadata
+
+    names = ("hadim", "numpy", "scipy", "torch", "pymunk", "sqlalchemy")
+    assert runs.package_versions() == {name: metadata.version(name) for name in names}
+
+
+def test_a_resumed_run_goes_on_to_the_iterations_it_was_last_driven_to(stored, tmp_path):
+    """`hadim resume RUN` continues to the target its last stored episode records; a run
+    with no episode stored yet takes the default."""
+    from hadim_cli.config import load_config
+
+    store, run, _ = stored
+    assert runs.target_iterations(store, store.get_run(run.name), 7) == 4 * EPISODE
+    with Store.open(tmp_path / "s.sqlite", create=True) as empty:
+        fresh = runs.new_run(empty, load_config(), SEED, None)
+        assert runs.target_iterations(empty, fresh, 7) == 7
+
+
+def test_full_checkpoints_are_written_as_often_as_the_environment_says(monkeypatch):
+    from hadim_cli.errors import HadimError
+    from hadim_store.deltas import DEFAULT_SNAPSHOT_EVERY
+
+    monkeypatch.delenv("HADIM_SNAPSHOT_EVERY", raising=False)
+    assert runs.snapshot_every() == DEFAULT_SNAPSHOT_EVERY
+    monkeypatch.setenv("HADIM_SNAPSHOT_EVERY", " 3 ")
+    assert runs.snapshot_every() == 3
+    for bad in ("0", "two"):
+        monkeypatch.setenv("HADIM_SNAPSHOT_EVERY", bad)
+        with pytest.raises(HadimError, match=f"HADIM_SNAPSHOT_EVERY='{bad}': give a whole"):
+            runs.snapshot_every()
+
+
+def test_a_run_of_another_version_or_config_says_so_once_restored(stored):
+    """A run trained by this hadim with this config restores without a note; one trained by
+    another version, or whose config lacks a key, gets one line saying which and what is
+    done about it."""
+    store, run, _ = stored
+    record = store.get_run(run.name)
+    installed = runs.package_versions()["hadim"]
+    assert runs.version_note(record) is None
+    older = replace(record, versions={**record.versions, "hadim": "0.0.1"})
+    assert runs.version_note(older) == (
+        f"note: run {run.name} was trained with hadim 0.0.1; hadim {installed} learns and "
+        "acts for it (its D, H and models as stored, the installed code)")
+    config = {**record.config, "planner": dict(record.config["planner"])}
+    config["planner"].pop("beam")
+    lacking = replace(record, config=config)
+    assert runs.version_note(lacking) == (
+        f"note: run {run.name} is run by hadim {installed}; hadim {installed} learns and acts "
+        "for it (its D, H and models as stored, the installed code); keys it lacks, at the "
+        "installed defaults: planner.beam")

@@ -10,7 +10,14 @@ import dataclasses
 
 import numpy as np
 import pytest
-from handmade import Room, world_learner
+from handmade import (
+    ROBOT_HEADING,
+    ROBOT_LIDAR,
+    TARGET_POSITION,
+    TARGET_ROBOT,
+    Room,
+    world_learner,
+)
 
 from hadim_cli.config import load_config
 from hadim_cli.evaluation.exact import exact_levels
@@ -20,7 +27,7 @@ from hadim_cli.learner.affordance import typical_step
 from hadim_cli.learner.controller import Controller, detour
 from hadim_cli.learner.goals import Binding
 from hadim_cli.learner.places import needed_context
-from hadim_cli.learner.spaces import Property, Role, RoleSpace
+from hadim_cli.learner.spaces import Property, Role, RoleSpace, Rows
 from hadim_cli.world.world import World
 
 TASK = load_task("push-line")
@@ -60,13 +67,13 @@ def _push(learner):
     return next(a for a in learner.hierarchy if a.input == ROBOT_POSITION)
 
 
-def _first_decision(world, controller, aff, binding, goal):
-    """The first action of a pursuit of `goal` from the task's scene, and the `Decision`
-    the observer was handed for it; returns (observation, action, decision)."""
+def _first_decision(world, controller, aff, binding, goal, scene=TASK.scene):
+    """The first action of a pursuit of `goal` from `scene` (the task's), and the
+    `Decision` the observer was handed for it; returns (observation, action, decision)."""
     decisions = []
     controller.observer = decisions.append
     try:
-        obs = world.reset(scene=TASK.scene)
+        obs = world.reset(scene=scene)
         action = controller.act(obs, controller.pursue(aff, binding, goal, obs))
     finally:
         controller.observer = None
@@ -252,6 +259,56 @@ def test_the_estimate_is_the_targets_way_in_pushes_plus_the_robots_way_to_its_pl
     assert decision.to_go == pytest.approx(expected, rel=1e-3)
 
 
+def _behind(gap):
+    """The task's scene with the robot on the line of obj1's goal (+x), facing it, `gap`
+    clear of obj1 — behind it, or in front of it (between it and the goal) when negative."""
+    obj = TASK.scene.objects[0]
+    contact = load_config().world.robot_radius + obj.radius
+    x = obj.x - contact - gap if gap >= 0 else obj.x + contact - gap
+    return dataclasses.replace(TASK.scene, robot_x=x, robot_y=obj.y, robot_heading=0.0)
+
+
+def test_a_robot_a_little_behind_the_target_drives_into_it_at_full_speed(rig):
+    """3 cm behind obj1, facing its goal: a full move forward reaches obj1 on the way and
+    pushes it (the robot does not stop at contact), and the estimate falls by it."""
+    _, world, learner = rig
+    _, action, decision = _first_decision(world, learner.controller, _push(learner),
+                                          Binding(target=1), np.array([1.25, 0.0]),
+                                          _behind(0.03))
+    assert action == pytest.approx([1.0, 1.0])
+    assert decision.predicted < decision.to_go
+
+
+def test_a_move_that_stops_short_of_the_target_leaves_it_where_it_is(rig):
+    """30–50 cm behind obj1, facing its goal: no move reaches obj1, so the best command's
+    estimate is that action, plus obj1's whole way in pushes, plus the robot's way left to
+    contact after the drive's predicted move (in the drive's steps)."""
+    config, world, learner = rig
+    reader, push, drive = learner.reader, _push(learner), _mover(learner)
+    q, zero = config.planner.step_quantile, config.learner.zero_eps
+    goal = np.array([1.25, 0.0])
+    for gap in (0.3, 0.5):
+        obs, action, decision = _first_decision(world, learner.controller, push,
+                                                Binding(target=1), goal, _behind(gap))
+        target, robot = reader.entity_position(obs, 1), reader.entity_position(obs, 0)
+        place = target - (config.world.robot_radius + TASK.scene.objects[0].radius) * np.array(
+            [1.0, 0.0])
+        move = drive.model.predict(action[None], reader.read_each(drive.contexts, obs[None]))[0]
+        expected = (1 + np.linalg.norm(goal - target) / typical_step(push, q, zero)
+                    + np.linalg.norm(place - robot - move) / typical_step(drive, q, zero))
+        assert decision.predicted == pytest.approx(expected, rel=1e-3)
+
+
+def test_a_robot_between_the_target_and_its_goal_does_not_drive_off_towards_the_goal(rig):
+    """In front of obj1 (5 mm clear), facing obj1's goal: driving on moves the robot away
+    from obj1, not obj1 — a move away from a body reaches nothing — so the robot does not
+    take it; it sets off round obj1."""
+    _, world, learner = rig
+    _, action, _ = _first_decision(world, learner.controller, _push(learner), Binding(target=1),
+                                   np.array([1.25, 0.0]), _behind(-0.005))
+    assert action is not None and action.mean() < 0.5
+
+
 def test_an_exact_level_is_imagined_by_the_rooms_physics_instead_of_its_model():
     """A drive learned facing −x (forward moves the robot −x, whatever the heading seen now)
     sends a robot facing +x backwards to a goal ahead; with the navigation level exact
@@ -295,3 +352,117 @@ def test_the_search_tries_an_n_by_n_grid_of_commands_over_the_action_box(rig):
     assert five.commands.shape == (24, 2)  # 5 × 5, standing still left out
     assert {tuple(c) for c in five.commands} >= {(-1.0, -1.0), (-1.0, 1.0), (1.0, 1.0), (1.0, 0.0)}
     assert np.abs(five.commands).max() == 1.0 and not np.any(np.all(five.commands == 0, axis=1))
+
+
+def test_a_place_off_the_line_of_the_push_is_turned_with_the_wanted_move():
+    """Pushes seen only from 0.6 rad to the left of the line of the move (target − robot
+    turned by +0.6 from the move, at contact), with a LIDAR context that has no mirror
+    image: the place is off the line. Pushing obj1 towards a goal at 2 rad, the observer's
+    gap is the robot's way to that place turned to the goal's direction — not to its mirror
+    image, nor to the place unturned."""
+    room = Room()
+    room.affordance(room.moves(np.random.default_rng(2), 80), contexts=(ROBOT_HEADING,))
+    room.set("robot", ROBOT_LIDAR.prop, [1.0] * 4)
+    side, contact = 0.6, 0.15 + 0.12
+    rng = np.random.default_rng(3)
+    room.episode()
+    t = []
+    for _ in range(40):
+        phi, move = rng.uniform(-np.pi, np.pi), rng.uniform(0.03, 0.06)
+        along = np.array([np.cos(phi), np.sin(phi)])
+        behind = np.array([np.cos(phi + side), np.sin(phi + side)])
+        room.place("obj1", [0.0, 0.0])
+        room.place("robot", -contact * behind)
+        before = room.obs.copy()
+        room.place("robot", -contact * behind + move * along)
+        room.place("obj1", move * along)
+        t.append(room.dataset.append(np.zeros(2), before, room.obs.copy()))
+    t = np.array(t, dtype=np.int64)
+    rows = Rows(t, np.full(t.size, 1, dtype=np.int64), np.full(t.size, -1, dtype=np.int64))
+    push = room.fitter.new_affordance(room.hierarchy.allocate_id(), ROBOT_POSITION,
+                                      TARGET_POSITION, (TARGET_ROBOT, ROBOT_LIDAR), rows,
+                                      len(room.dataset), np.random.default_rng(0))
+    room.hierarchy.add(push, len(room.dataset))
+    u = np.array([np.cos(2.0), np.sin(2.0)])
+    target = np.array([0.2, -0.4])
+    room.place("obj1", target)
+    place = target - contact * np.array([np.cos(2.0 + side), np.sin(2.0 + side)])
+    robot = place - 0.5 * np.array([np.cos(2.0 + side), np.sin(2.0 + side)])
+    room.place("robot", robot)
+    room.set("robot", ROBOT_HEADING.prop, [1.0, 0.0])
+    decisions = []
+    controller = room.learner.controller
+    controller.observer = decisions.append
+    action = controller.act(room.obs, controller.pursue(push, Binding(target=1),
+                                                        target + 0.5 * u, room.obs))
+    assert action is not None
+    (gap,) = decisions[0].gaps
+    assert gap == pytest.approx(0.5, abs=1e-3)
+
+
+def test_a_detour_round_a_disc_passes_on_the_side_of_the_straight_line():
+    """The straight way passes 0.2 above the disc's centre: the way round starts up, over
+    the disc, and comes down to the end."""
+    frm, to = np.array([[-1.0, 0.2]]), np.array([[1.0, 0.2]])
+    _, first, last = detour(frm, to, np.zeros((1, 1, 2)), np.full((1, 1), 0.5))
+    assert first[0, 1] > 0.1 and last[0, 1] < -0.1
+
+
+def test_a_detour_between_points_opposite_across_a_discs_centre_is_its_tangents_and_half_arc():
+    """Start and end on one line through the centre, on either side (their directions from
+    it, in floating point, just past opposite): the way is two tangents and the arc between."""
+    v = np.array([0.1, 0.3])
+    frm, to, r = -0.6 * v[None], 0.6 * v[None], 0.1
+    length, first, last = detour(frm, to, np.zeros((1, 1, 2)), np.full((1, 1), r))
+    d = float(np.linalg.norm(0.6 * v))
+    touch = np.arccos(r / d)
+    assert length[0] == pytest.approx(2 * np.sqrt(d * d - r * r) + r * (np.pi - 2 * touch))
+    assert np.all(np.isfinite(first)) and np.all(np.isfinite(last))
+
+
+def test_a_robot_facing_its_way_to_its_place_pays_no_turn_whatever_the_push(rig):
+    """Behind obj1 but off the line of its goal, facing its place: the estimate is obj1's
+    way in pushes plus the robot's way to contact behind obj1 in drive steps — no turn, though
+    the push it will make then runs along another line."""
+    config, world, learner = rig
+    reader, push, drive = learner.reader, _push(learner), _mover(learner)
+    q, zero = config.planner.step_quantile, config.learner.zero_eps
+    obj = TASK.scene.objects[0]
+    goal, target = np.array([1.25, 0.0]), np.array([obj.x, obj.y])
+    place = target - (config.world.robot_radius + obj.radius) * np.array([1.0, 0.0])
+    robot = place + np.array([-0.3, 0.4])
+    toward = np.arctan2(*(place - robot)[::-1])
+    scene = dataclasses.replace(TASK.scene, robot_x=robot[0], robot_y=robot[1],
+                                robot_heading=toward)
+    obs, _, decision = _first_decision(world, learner.controller, push, Binding(target=1), goal,
+                                       scene)
+    expected = (np.linalg.norm(goal - reader.entity_position(obs, 1)) / typical_step(push, q, zero)
+                + np.linalg.norm(place - reader.entity_position(obs, 0))
+                / typical_step(drive, q, zero))
+    assert decision.to_go == pytest.approx(expected, rel=1e-3)
+
+
+def test_an_exact_navigation_level_imagines_the_robots_turns_by_the_rooms_physics_too():
+    """A turner learned from rows that turn the other way (right wheel faster: a turn to the
+    right) turns a robot facing +x the wrong way towards a goal ahead on its left; with the
+    navigation level exact, its heading is imagined by the room's physics as well, and the
+    controller turns it left."""
+    room = Room()
+    rng = np.random.default_rng(2)
+    drive = room.affordance(room.moves(rng, 80), contexts=(ROBOT_HEADING,))
+    t = []
+    for _ in range(80):
+        theta, action = rng.uniform(-np.pi, np.pi), rng.uniform(-1.0, 1.0, 2)
+        room.set("robot", ROBOT_HEADING.prop, [np.cos(theta), np.sin(theta)])
+        before = room.obs.copy()
+        turned = theta - 0.3 * (action[1] - action[0])
+        room.set("robot", ROBOT_HEADING.prop, [np.cos(turned), np.sin(turned)])
+        t.append(room.dataset.append(action, before, room.obs.copy()))
+    room.affordance(np.array(t, dtype=np.int64), (ROBOT_HEADING,), out=ROBOT_HEADING)
+    room.place("robot", [0.0, 0.0])
+    room.set("robot", ROBOT_HEADING.prop, [1.0, 0.0])
+    controller, goal = room.learner.controller, np.array([0.3, 0.3])
+    learned = controller.act(room.obs, controller.pursue(drive, Binding(), goal, room.obs))
+    with exact_levels(room.learner, load_config().world, ("navigation",)):
+        exact = controller.act(room.obs, controller.pursue(drive, Binding(), goal, room.obs))
+    assert learned[0] > learned[1] and exact[1] > exact[0]

@@ -3,6 +3,7 @@ walking the objects, not a list someone remembered to write down."""
 
 from __future__ import annotations
 
+import dataclasses
 import enum
 import json
 from functools import cached_property
@@ -22,7 +23,7 @@ from scipy.spatial import cKDTree
 from hadim_cli.learner.explorer import Learner
 from hadim_cli.learner.hierarchy import EventKind
 from hadim_cli.learner.spaces import ACTION, Rows
-from hadim_cli.learner.state import learner_state, restore_learner
+from hadim_cli.learner.state import event_to_json, learner_state, restore_learner
 from hadim_cli.world.actions import ROVER_ACTIONS
 
 IGNORED: dict[str, str] = {}
@@ -255,3 +256,46 @@ def test_a_model_stored_in_another_frame_comes_back_as_the_installed_code_fits_i
     h = np.random.default_rng(2).normal(size=(20, 2))
     h /= np.linalg.norm(h, axis=1, keepdims=True)
     np.testing.assert_allclose(twin.model.predict(q, h), installed.predict(q, h), atol=1e-12)
+
+
+def test_a_format_1_state_keeps_each_affordances_history_in_its_json():
+    """Format 1 kept an affordance's competence history in the JSON, not in an array: such
+    a state restores each history as saved."""
+    room = rich_learner()
+    meta, arrays = learner_state(room.learner)
+    meta = json.loads(json.dumps(meta))
+    old = dict(arrays)
+    for m in meta["affordances"]:
+        m["history"] = old.pop(f"aff{m['id']}.history").tolist()
+    copy = Learner(room.config, room.layout, ROVER_ACTIONS)
+    copy.dataset.extend(room.dataset.actions[:len(room.dataset)],
+                        room.dataset.contexts[:len(room.dataset)],
+                        room.dataset.outcomes[:len(room.dataset)])
+    restore_learner(copy, {**meta, "format": 1}, old)
+    assert [a.history for a in copy.hierarchy] == [a.history for a in room.hierarchy]
+    assert any(len(a.history) > 1 for a in copy.hierarchy)
+
+
+def test_a_state_whose_classifiers_differ_from_the_config_is_refused():
+    """p_A's hidden layer is the config's (`learner.classifier_hidden`): a checkpoint whose
+    classifiers have another is an error naming it, not a learner quietly unlike its config."""
+    import pytest
+
+    room = rich_learner()
+    meta, arrays = learner_state(room.learner)
+    copy = Learner(dataclasses.replace(room.config, classifier_hidden=16), room.layout,
+                   ROVER_ACTIONS)
+    copy.dataset.extend(room.dataset.actions[:len(room.dataset)],
+                        room.dataset.contexts[:len(room.dataset)],
+                        room.dataset.outcomes[:len(room.dataset)])
+    with pytest.raises(ValueError, match="hidden=32.*hidden=16 was asked for"):
+        restore_learner(copy, json.loads(json.dumps(meta)), arrays)
+
+
+def test_an_events_stored_form_is_its_fields_as_json_values():
+    room = rich_learner()
+    e = room.hierarchy.events[0]
+    assert event_to_json(e) == {"iteration": e.iteration, "affordance_id": e.affordance_id,
+                                "kind": e.kind.value, "input": e.input, "output": e.output,
+                                "contexts": list(e.contexts), "competence": e.competence,
+                                "detail": e.detail}

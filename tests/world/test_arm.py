@@ -11,7 +11,7 @@ import sys
 
 import numpy as np
 import pytest
-from conftest import GREEN, RED, assert_drawn_object
+from worldmade import GREEN, RED, assert_drawn_object
 
 from hadim_cli.config import Body, WorldConfig, configs_dir, load_config
 from hadim_cli.errors import ActionError, HadimError

@@ -8,7 +8,7 @@ import sys
 
 import numpy as np
 import pytest
-from conftest import config, green
+from worldmade import config, green
 
 from hadim_cli.config import WorldConfig
 from hadim_cli.errors import ActionError, HadimError

@@ -6,7 +6,7 @@ import math
 
 import numpy as np
 import pytest
-from conftest import green, red, world_with
+from worldmade import green, red, world_with
 
 from hadim_cli.config import WorldConfig
 from hadim_cli.world.layout import Property

@@ -6,7 +6,7 @@ import math
 
 import numpy as np
 import pytest
-from conftest import assert_drawn_object, config
+from worldmade import assert_drawn_object, config
 
 from hadim_cli.config import WorldConfig
 from hadim_cli.world.placement import SceneError, draw_scene
