@@ -176,10 +176,10 @@ def render_h_table(console: Console, rows: list[dict[str, Any]], iteration: int,
     console.print(accepts)
 
 
-def render_p_a(console: Console, verdicts: list, iteration: int) -> None:
+def render_p_a(console: Console, verdicts: list, iteration: int, actor: str = "robot") -> None:
     """p_A of each affordance (a column) on the reference scene and on unseen objects (rows):
-    P(accept), ✗ where it is wrong (accepts a fixed object or the robot, rejects a pushable
-    one)."""
+    P(accept), ✗ where it is wrong (accepts a fixed object or the actor — the world's name for
+    it, `actor` — rejects a pushable one)."""
     if not verdicts:
         console.print(f"no affordance with p_A at iteration {iteration}")
         return
@@ -204,7 +204,7 @@ def render_p_a(console: Console, verdicts: list, iteration: int) -> None:
         verdict = "right" if not v.scene_wrong else f"wrong on {', '.join(v.scene_wrong)}"
         unseen = "right" if not v.unseen_wrong else f"wrong on {', '.join(v.unseen_wrong)}"
         console.print(f"  {v.affordance}: scene {verdict}; unseen {unseen}; replay "
-                      f"{r['positives']} positives, {r['negatives_robot']} robot and "
+                      f"{r['positives']} positives, {r['negatives_robot']} {actor} and "
                       f"{r['negatives_objects']} object negatives", markup=False,
                       highlight=False)
 

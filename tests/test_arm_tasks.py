@@ -130,6 +130,12 @@ def test_a_space_is_shown_with_the_world_s_name_for_its_actor_the_rover_s_unchan
     assert shown_as("A2 robot.position", "effector") == "A2 effector.position"
     assert shown_as("place robot for A3", "effector") == "place effector for A3"
     assert shown_as("target-tool", "effector") == "target-tool"
+    # an affordance as `describe()` writes it (`affordances --pa`)
+    assert (shown_as("A1(robot.position → target.position | target-robot, robot.orientation)",
+                     "effector")
+            == "A1(effector.position → target.position | target-effector, effector.orientation)")
+    assert shown_as("A0(action → robot.position | ∅)", "effector") == \
+        "A0(action → effector.position | ∅)"
 
 
 def test_a_task_of_one_body_on_a_run_of_the_other_is_refused_with_nothing_stored(

@@ -263,7 +263,13 @@ def _show_models(session, pa: bool, as_json: bool) -> None:
         if as_json:
             typer.echo(json.dumps([v.as_json() for v in found], indent=2))
         else:
-            render_p_a(_console(), found, session.iteration)
+            from dataclasses import replace
+
+            from hadim_cli.learner.spaces import shown_as
+
+            actor = session.world.layout.actor
+            render_p_a(_console(), [replace(v, affordance=shown_as(v.affordance, actor))
+                                    for v in found], session.iteration, actor)
         return
     from hadim_cli.reports import error_rows, render_errors, rows_shown
 

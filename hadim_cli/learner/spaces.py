@@ -10,6 +10,7 @@ into columns of the flat observation vectors of D.
 from __future__ import annotations
 
 import enum
+import re
 from dataclasses import dataclass
 from functools import cached_property
 
@@ -78,7 +79,8 @@ def parse_space(name: str) -> RoleSpace:
 
 def shown_as(text: str, actor: str) -> str:
     """`text` — a space's stored name, or words holding such names and roles (a controller's
-    label, `place robot for A2`) — as a reader of a run of this world wants it: the actor's
+    label, `place robot for A2`, an affordance's `describe()`, `A1(robot.position → …)`) — as
+    a reader of a run of this world wants it: the actor's
     role called what the world calls its actor (`robot.joints` → `effector.joints`,
     `target-robot` → `target-effector`); the rover's text unchanged. For display only: runs
     store, and `parse_space` reads, the role's own name."""
@@ -88,6 +90,16 @@ def shown_as(text: str, actor: str) -> str:
 
 
 def _shown_word(word: str, actor: str) -> str:
+    head, core, tail = _WORD.fullmatch(word).groups("")  # type: ignore[union-attr]
+    return head + _shown_name(core, actor) + tail
+
+
+_WORD = re.compile(r"(A\d+\(|\()?(.*?)([),]*)", re.DOTALL)
+"""A word of a description: an affordance's `A1(` or a bracket before, brackets and commas
+after, the name between."""
+
+
+def _shown_name(word: str, actor: str) -> str:
     if word == Role.ROBOT.value:
         return actor
     try:
