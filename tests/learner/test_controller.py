@@ -315,13 +315,20 @@ def test_an_exact_level_is_imagined_by_the_rooms_physics_instead_of_its_model():
     (`evaluation.exact`), the controller drives it forwards."""
     room = Room()
     drive = room.affordance(room.moves(np.random.default_rng(2), 80, heading=np.pi))
+    learned, exact = _first_actions_learned_and_exact(room, drive, np.array([0.4, 0.0]))
+    assert learned.mean() < -0.5 and exact.mean() > 0.5
+
+
+def _first_actions_learned_and_exact(room: Room, drive, goal: np.ndarray):
+    """The first action towards `goal` of a robot at the origin facing +x, with the learned
+    levels and with the navigation level exact."""
     room.place("robot", [0.0, 0.0])
     room.set("robot", Property.HEADING, [1.0, 0.0])
-    controller, goal = room.learner.controller, np.array([0.4, 0.0])
+    controller = room.learner.controller
     learned = controller.act(room.obs, controller.pursue(drive, Binding(), goal, room.obs))
     with exact_levels(room.learner, load_config().world, ("navigation",)):
         exact = controller.act(room.obs, controller.pursue(drive, Binding(), goal, room.obs))
-    assert learned.mean() < -0.5 and exact.mean() > 0.5
+    return learned, exact
 
 
 def test_a_search_two_actions_deep_turns_the_robot_towards_a_goal_on_its_right(rig):
@@ -459,10 +466,5 @@ def test_an_exact_navigation_level_imagines_the_robots_turns_by_the_rooms_physic
         room.set("robot", ROBOT_HEADING.prop, [np.cos(turned), np.sin(turned)])
         t.append(room.dataset.append(action, before, room.obs.copy()))
     room.affordance(np.array(t, dtype=np.int64), (ROBOT_HEADING,), out=ROBOT_HEADING)
-    room.place("robot", [0.0, 0.0])
-    room.set("robot", ROBOT_HEADING.prop, [1.0, 0.0])
-    controller, goal = room.learner.controller, np.array([0.3, 0.3])
-    learned = controller.act(room.obs, controller.pursue(drive, Binding(), goal, room.obs))
-    with exact_levels(room.learner, load_config().world, ("navigation",)):
-        exact = controller.act(room.obs, controller.pursue(drive, Binding(), goal, room.obs))
+    learned, exact = _first_actions_learned_and_exact(room, drive, np.array([0.3, 0.3]))
     assert learned[0] > learned[1] and exact[1] > exact[0]
