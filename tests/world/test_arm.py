@@ -23,6 +23,7 @@ from hadim_cli.world.kinematics import (
     joint_points,
     joint_ranges,
     outer_reach,
+    pose_angles,
 )
 from hadim_cli.world.layout import EFFECTOR, OBJECT_SPACES, Property
 from hadim_cli.world.scene import ArmScene, ObjectSpec
@@ -47,8 +48,6 @@ print(hashlib.sha256(np.array(obs).tobytes()).hexdigest())
 def angles(lay, obs: np.ndarray) -> np.ndarray:
     """Every joint's angle, base outwards, from the observation: the first link's direction
     (`Property.ORIENTATION`) and the other joints' bends (`Property.JOINTS`)."""
-    from hadim_cli.world.kinematics import pose_angles
-
     return pose_angles(lay.get(obs, EFFECTOR, Property.ORIENTATION),
                        lay.get(obs, EFFECTOR, Property.JOINTS))
 
@@ -242,6 +241,25 @@ def test_inner_reach_is_the_nearest_the_effector_gets_to_its_base():
     assert two == pytest.approx(math.sqrt(0.6**2 + 0.5**2 + 2 * 0.6 * 0.5 * math.cos(2.5)))
     points = joint_points((0.6, 0.5, 0.4), np.array([math.pi / 2, -math.pi / 2, 0.0]))
     np.testing.assert_allclose(points, [[0, 0], [0, 0.6], [0.5, 0.6], [0.9, 0.6]], atol=1e-12)
+
+
+def test_pose_angles_reads_one_pose_or_many_in_double_precision():
+    """The joint angles of a batch of observed poses (what exact navigation reads) are each
+    pose's, and a float32 observation's (the goal environments') are worked out in float64
+    from the values it holds."""
+    q = np.random.default_rng(4).uniform(-1, 1, (5, 3)) * joint_ranges(ARM.arm.joint_limits)
+    orientation = np.stack([np.cos(q[:, 0]), np.sin(q[:, 0])], axis=1)
+    batch = pose_angles(orientation, q[:, 1:])
+    assert batch.shape == (5, 3)
+    np.testing.assert_allclose(batch, q, atol=1e-12)
+    for row, o, bends in zip(batch, orientation, q[:, 1:], strict=True):
+        np.testing.assert_array_equal(row, pose_angles(o, bends))
+    o32, bends32 = orientation.astype(np.float32), q[:, 1:].astype(np.float32)
+    read = pose_angles(o32, bends32)
+    assert read.dtype == np.float64
+    o64 = o32.astype(np.float64)
+    np.testing.assert_array_equal(read[:, 0], np.arctan2(o64[:, 1], o64[:, 0]))
+    np.testing.assert_array_equal(read[:, 1:], bends32.astype(np.float64))
 
 
 @pytest.mark.parametrize("seed", range(12))
