@@ -141,6 +141,25 @@ def test_a_joint_command_turns_its_joint_by_speed_times_duration():
     np.testing.assert_allclose(turned, np.array([1.0, -1.0, 0.5]) * 0.12 * 0.5, atol=1e-3)
 
 
+def test_each_link_is_a_uniform_rod_turned_with_its_joints_inertia():
+    """A link's mass is spread evenly along it: its centre of gravity halfway, its moment of
+    inertia about that centre m·l²/12, plus what its joint's motor and gearbox add
+    (`joint_inertia`); each link starts where the scene's joint angles put it."""
+    from hadim_cli.world.arm_physics import build_arm_physics
+
+    arm, q = ARM.arm, (0.4, -0.7, 1.1)
+    physics = build_arm_physics(arm_config(n_green=0, n_red=0), ArmScene((), q))
+    starts = joint_points(arm.link_lengths, np.array(q))[:-1]
+    rows = zip(physics.links, arm.link_lengths, starts, np.cumsum(q), strict=True)
+    for link, length, start, angle in rows:
+        assert link.mass == arm.link_mass
+        assert tuple(link.center_of_gravity) == (length / 2, 0.0)
+        assert link.moment == pytest.approx(arm.link_mass * length**2 / 12 + arm.joint_inertia,
+                                            rel=1e-12)
+        np.testing.assert_allclose(tuple(link.position), start, atol=1e-12)
+        assert link.angle == pytest.approx(angle, abs=1e-12)
+
+
 def test_every_action_ends_at_rest():
     """After the hold, the joints are held still for `settle_time`: the arm, and the object it
     pushed, are at rest when observed, so an action's outcome depends only on what the
