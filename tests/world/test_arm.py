@@ -320,6 +320,17 @@ def test_scenes_spread_over_the_annulus():
     assert np.all(np.histogram(bearing, bins=8, range=(-math.pi, math.pi))[0] > 40)
 
 
+def test_drawn_poses_spread_over_every_joints_range():
+    """The shoulder's angle is uniform in [-π, π), each other joint's within its limits: over
+    200 drawn scenes every quarter of every joint's range holds a share near a quarter."""
+    world = make_world(ARM)
+    rng = np.random.default_rng(2)
+    poses = np.array([world.draw_scene(rng).joints for _ in range(200)])
+    for q, limit in zip(poses.T, joint_ranges(ARM.arm.joint_limits), strict=True):
+        counts = np.histogram(q, bins=4, range=(-limit, limit))[0]
+        assert counts.sum() == 200 and np.all(counts > 30), counts
+
+
 def test_a_scene_the_arm_cannot_hold_is_refused():
     world = make_world(ARM)
     with pytest.raises(HadimError, match="layout has 9"):
