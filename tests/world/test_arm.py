@@ -23,6 +23,7 @@ from hadim_cli.world.kinematics import (
     joint_points,
     joint_ranges,
     outer_reach,
+    pose_angles,
 )
 from hadim_cli.world.layout import EFFECTOR, OBJECT_SPACES, Property
 from hadim_cli.world.scene import ArmScene, ObjectSpec
@@ -47,8 +48,6 @@ print(hashlib.sha256(np.array(obs).tobytes()).hexdigest())
 def angles(lay, obs: np.ndarray) -> np.ndarray:
     """Every joint's angle, base outwards, from the observation: the first link's direction
     (`Property.ORIENTATION`) and the other joints' bends (`Property.JOINTS`)."""
-    from hadim_cli.world.kinematics import pose_angles
-
     return pose_angles(lay.get(obs, EFFECTOR, Property.ORIENTATION),
                        lay.get(obs, EFFECTOR, Property.JOINTS))
 
@@ -140,6 +139,25 @@ def test_a_joint_command_turns_its_joint_by_speed_times_duration():
     world.step((1.0, -1.0, 0.5))
     turned = world.joint_angles() - start
     np.testing.assert_allclose(turned, np.array([1.0, -1.0, 0.5]) * 0.12 * 0.5, atol=1e-3)
+
+
+def test_each_link_is_a_uniform_rod_turned_with_its_joints_inertia():
+    """A link's mass is spread evenly along it: its centre of gravity halfway, its moment of
+    inertia about that centre m·l²/12, plus what its joint's motor and gearbox add
+    (`joint_inertia`); each link starts where the scene's joint angles put it."""
+    from hadim_cli.world.arm_physics import build_arm_physics
+
+    arm, q = ARM.arm, (0.4, -0.7, 1.1)
+    physics = build_arm_physics(arm_config(n_green=0, n_red=0), ArmScene((), q))
+    starts = joint_points(arm.link_lengths, np.array(q))[:-1]
+    rows = zip(physics.links, arm.link_lengths, starts, np.cumsum(q), strict=True)
+    for link, length, start, angle in rows:
+        assert link.mass == arm.link_mass
+        assert tuple(link.center_of_gravity) == (length / 2, 0.0)
+        assert link.moment == pytest.approx(arm.link_mass * length**2 / 12 + arm.joint_inertia,
+                                            rel=1e-12)
+        np.testing.assert_allclose(tuple(link.position), start, atol=1e-12)
+        assert link.angle == pytest.approx(angle, abs=1e-12)
 
 
 def test_every_action_ends_at_rest():
@@ -244,6 +262,25 @@ def test_inner_reach_is_the_nearest_the_effector_gets_to_its_base():
     np.testing.assert_allclose(points, [[0, 0], [0, 0.6], [0.5, 0.6], [0.9, 0.6]], atol=1e-12)
 
 
+def test_pose_angles_reads_one_pose_or_many_in_double_precision():
+    """The joint angles of a batch of observed poses (what exact navigation reads) are each
+    pose's, and a float32 observation's (the goal environments') are worked out in float64
+    from the values it holds."""
+    q = np.random.default_rng(4).uniform(-1, 1, (5, 3)) * joint_ranges(ARM.arm.joint_limits)
+    orientation = np.stack([np.cos(q[:, 0]), np.sin(q[:, 0])], axis=1)
+    batch = pose_angles(orientation, q[:, 1:])
+    assert batch.shape == (5, 3)
+    np.testing.assert_allclose(batch, q, atol=1e-12)
+    for row, o, bends in zip(batch, orientation, q[:, 1:], strict=True):
+        np.testing.assert_array_equal(row, pose_angles(o, bends))
+    o32, bends32 = orientation.astype(np.float32), q[:, 1:].astype(np.float32)
+    read = pose_angles(o32, bends32)
+    assert read.dtype == np.float64
+    o64 = o32.astype(np.float64)
+    np.testing.assert_array_equal(read[:, 0], np.arctan2(o64[:, 1], o64[:, 0]))
+    np.testing.assert_array_equal(read[:, 1:], bends32.astype(np.float64))
+
+
 @pytest.mark.parametrize("seed", range(12))
 def test_reset_draws_a_pose_within_limits_and_objects_the_arm_reaches(seed: int) -> None:
     """Joints within their limits; every object green then red, of the room's sizes and
@@ -281,6 +318,17 @@ def test_scenes_spread_over_the_annulus():
     assert 0.4 < np.mean(d > median) < 0.6
     bearing = np.arctan2(centres[:, 1], centres[:, 0])
     assert np.all(np.histogram(bearing, bins=8, range=(-math.pi, math.pi))[0] > 40)
+
+
+def test_drawn_poses_spread_over_every_joints_range():
+    """The shoulder's angle is uniform in [-π, π), each other joint's within its limits: over
+    200 drawn scenes every quarter of every joint's range holds a share near a quarter."""
+    world = make_world(ARM)
+    rng = np.random.default_rng(2)
+    poses = np.array([world.draw_scene(rng).joints for _ in range(200)])
+    for q, limit in zip(poses.T, joint_ranges(ARM.arm.joint_limits), strict=True):
+        counts = np.histogram(q, bins=4, range=(-limit, limit))[0]
+        assert counts.sum() == 200 and np.all(counts > 30), counts
 
 
 def test_a_scene_the_arm_cannot_hold_is_refused():

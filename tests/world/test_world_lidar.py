@@ -61,3 +61,14 @@ def test_ranges_match_brute_force_marching(seed: int) -> None:
     got = Lidar(16, 1.5, 2.0, 2.0).ranges(x, y, heading, centers.tolist(), radii.tolist())
     want = reference(x, y, heading, centers, radii, 16, 1.5, 2.0)
     assert np.allclose(got, want, atol=2e-5)
+
+
+def test_a_ray_tangent_to_an_object_stops_where_it_touches_it() -> None:
+    """An object is a closed disc, as in the marching reference: ray 0 grazing an object of
+    radius 0.5 centred 0.5 m to its side, from either side, stops at the point it touches,
+    2 m ahead, not at the wall beyond."""
+    lidar = Lidar(16, 3.0, 4.0, 4.0)
+    for side in (0.5, -0.5):
+        ranges = lidar.ranges(0.0, 0.0, 0.0, [(2.0, side)], [0.5])
+        assert ranges[0] == 2.0
+    assert lidar.ranges(0.0, 0.0, 0.0, [(2.0, 0.6)], [0.5])[0] == 3.0  # just clear of it
