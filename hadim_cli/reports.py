@@ -20,20 +20,24 @@ def _names(names) -> str:
     return "\n".join(names) or "∅"
 
 
+def _shown(value: Any, actor: str) -> Any:
+    """`value` with every name in it (a string, or strings in lists and tuples) as
+    `spaces.shown_as` shows it for the world whose actor is `actor`; anything else as is."""
+    from hadim_cli.learner.spaces import shown_as
+
+    if isinstance(value, str):
+        return shown_as(value, actor)
+    if isinstance(value, list | tuple):
+        return type(value)(_shown(v, actor) for v in value)
+    return value
+
+
 def rows_shown(rows: list[dict[str, Any]], actor: str) -> list[dict[str, Any]]:
     """Rows of H (or of its models' errors) with their spaces named for the world whose actor
     is `actor` (`spaces.shown_as`: `effector.position` on the arm); `--json` prints the
     stored names."""
-    from hadim_cli.learner.spaces import shown_as
-
-    def shown(value):
-        if isinstance(value, str):
-            return shown_as(value, actor)
-        return [shown_as(v, actor) for v in value]
-
     keys = ("input", "output", "context", "frame")
-    return [{k: shown(v) if k in keys and v is not None else v for k, v in r.items()}
-            for r in rows]
+    return [{k: _shown(v, actor) if k in keys else v for k, v in r.items()} for r in rows]
 
 
 def events_shown(events: list, actor: str) -> list:
@@ -41,19 +45,10 @@ def events_shown(events: list, actor: str) -> list:
     world whose actor is `actor` (as `rows_shown`)."""
     import dataclasses
 
-    from hadim_cli.learner.spaces import shown_as
-
-    def shown(value):
-        if isinstance(value, str):
-            return shown_as(value, actor)
-        if isinstance(value, list | tuple):
-            return [shown(v) for v in value]
-        return value
-
     return [dataclasses.replace(
-        e, input_space=shown_as(e.input_space, actor), output_space=shown_as(e.output_space, actor),
-        context=tuple(shown_as(c, actor) for c in e.context),
-        detail={k: shown(v) for k, v in e.detail.items()}) for e in events]
+        e, input_space=_shown(e.input_space, actor), output_space=_shown(e.output_space, actor),
+        context=_shown(e.context, actor),
+        detail={k: _shown(v, actor) for k, v in e.detail.items()}) for e in events]
 
 
 def entity_label(entity: str, scene) -> str:

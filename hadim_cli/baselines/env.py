@@ -233,11 +233,9 @@ class GoalWorldEnv(gym.Env):
         """Where entity `entity` (0: the actor) of the layout has its position in an
         observation (`observation_space["observation"]`)."""
         name = self.world.layout.entities[entity]
-        start = 0
-        for s in self._observed:
+        for s, cols in self.observed:
             if s.entity == name and s.prop is Property.POSITION:
-                return slice(start, start + s.dim)
-            start += s.dim
+                return cols
         raise ValueError(f"entity {name} has no position in this observation")
 
     @property

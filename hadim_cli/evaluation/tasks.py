@@ -19,12 +19,8 @@ from typing import Any
 from hadim_cli.config import Body, WorldConfig, configs_dir, read_toml
 from hadim_cli.errors import HadimError
 from hadim_cli.world.kinematics import inner_reach, joint_ranges, outer_reach
-from hadim_cli.world.layout import EFFECTOR, ROBOT, Shape
+from hadim_cli.world.layout import ROBOT, Shape, actor_of
 from hadim_cli.world.scene import ArmScene, ObjectSpec, Scene
-
-ACTORS: dict[Body, str] = {Body.ROVER: ROBOT, Body.ARM: EFFECTOR}
-"""The name each body's world gives its actor (entity 0: `ObservationLayout.actor`), which a
-task of that body drives with `entity = "robot"` (`"effector"`)."""
 
 
 @dataclass(frozen=True)
@@ -34,7 +30,7 @@ class Task:
     name: str
     description: str
     entity: str
-    """The body's actor ('robot', 'effector': `ACTORS`), or 'target' (the object named by
+    """The body's actor ('robot', 'effector': `layout.actor_of`), or 'target' (the object named by
     `target`)."""
     prop: str
     points: tuple[tuple[float, float], ...]
@@ -230,7 +226,7 @@ def parse_task(values: Mapping[str, Any], where: str) -> Task:
         raise HadimError(f"task file {where}: unknown key '{unknown[0]}' "
                          f"(allowed: {', '.join(sorted(known))})")
     body = _body(values.get("body", Body.ROVER.value), where)
-    actor = ACTORS[body]
+    actor = actor_of(body)
     entity = _need(values, "entity", where)
     if entity not in (actor, "target"):
         raise HadimError(f"task file {where}: entity must be '{actor}' (the {body.value}'s "
