@@ -2,7 +2,10 @@
 `runs.restore_session`): a run restored at a checkpoint is the session that wrote it — its D,
 H with every model, map and p_A, its counters and both random generators — and goes on as
 it would have. The store's own tests guard its formats; the fixture replay test guards old
-stores; these tests name what a restore must bring back."""
+stores; these tests name what a restore must bring back. Also the rest of `runs`, on small
+stores: the evaluations trained beside a run, the store a command opens and the run it reads,
+the one line a damaged store gives (the CLI's tests run them through the commands too, but
+outside the mutation run's selection)."""
 
 from __future__ import annotations
 
@@ -156,3 +159,87 @@ def test_a_run_of_another_version_or_config_says_so_once_restored(stored):
         f"note: run {run.name} is run by hadim {installed}; hadim {installed} learns and acts "
         "for it (its D, H and models as stored, the installed code); keys it lacks, at the "
         "installed defaults: planner.beam")
+
+
+def test_evaluations_beside_a_run_are_stored_and_each_episodes_progress_carries_the_last(
+        tmp_path):
+    """Trained two episodes, evaluated on move-robot after each: both scores are stored with
+    their iteration, and the progress reported after the last episode carries the score
+    measured there (the evaluation under way waited for) and that iteration."""
+    from hadim_cli.config import load_config
+
+    config = with_overrides(load_config(), [f"world.episode_length={EPISODE}"])
+    seen = []
+    with Store.open(tmp_path / "s.sqlite", create=True) as store:
+        run = runs.new_run(store, config, SEED, None)
+        runs.train(store, run.name, Session(config, SEED), 2 * EPISODE, eval_every=EPISODE,
+                   tasks=("move-robot",), on_progress=seen.append)
+        stored = [(e.iteration, e.task, e.score) for e in store.evaluations(run.name)]
+    assert [(it, task) for it, task, _ in stored] == [(EPISODE, "move-robot"),
+                                                      (2 * EPISODE, "move-robot")]
+    assert [p.iteration for p in seen] == [EPISODE, 2 * EPISODE]
+    assert seen[-1].scores == {"move-robot": stored[-1][2]}
+    assert seen[-1].scored_at == 2 * EPISODE
+
+
+def _damaged_meta(path):
+    """A copy of the store file at `path` whose `meta` table (where the schema is read) has
+    its root page overwritten with garbage."""
+    import sqlite3
+
+    with sqlite3.connect(f"{path.resolve().as_uri()}?mode=ro", uri=True) as con:
+        root, = con.execute("SELECT rootpage FROM sqlite_master WHERE name = 'meta'").fetchone()
+        page, = con.execute("PRAGMA page_size").fetchone()
+    data = bytearray(path.read_bytes())
+    data[(root - 1) * page:root * page] = bytes((7 * i + 3) % 251 for i in range(page))
+    copy = path.with_name("damaged.sqlite")
+    copy.write_bytes(bytes(data))
+    return copy
+
+
+def test_a_store_damaged_where_its_schema_is_read_is_refused_in_one_line(tmp_path):
+    """Opened to write into a run, the store says the run is untouched; opened to read it,
+    that the run cannot be read; both name the damage and the command that says more."""
+    from hadim_cli.config import load_config
+    from hadim_cli.errors import HadimError
+
+    with Store.open(tmp_path / "s.sqlite", create=True) as store:
+        runs.new_run(store, load_config(), SEED, "r")
+    copy = _damaged_meta(tmp_path / "s.sqlite")
+    tail = f"the store is damaged (database disk image is malformed); see `hadim store check " \
+           f"--store {copy}`"
+    for writes, head in ((True, "run r untouched: "), (False, "run r cannot be read: ")):
+        with pytest.raises(HadimError) as refused:
+            runs.open_store(str(copy), create=False, writes=writes, run="r")
+        assert str(refused.value) == head + tail
+
+
+def test_without_a_name_the_run_read_is_the_stores_most_recently_updated_and_said_so(
+        tmp_path, capsys):
+    from hadim_cli.config import load_config
+
+    with Store.open(tmp_path / "s.sqlite", create=True) as store:
+        runs.new_run(store, load_config(), SEED, "older")
+        runs.new_run(store, load_config(), SEED, "newer")
+        store.set_status("older", "paused")  # updated after "newer" was created
+        capsys.readouterr()
+        assert runs.chosen_run(store, None).name == "older"
+        assert capsys.readouterr().err == \
+            "run older (the store's most recent; name a run to read another)\n"
+        assert runs.chosen_run(store, "newer").name == "newer"
+
+
+def test_a_damage_line_shortens_the_reason_to_fit_its_length_and_keeps_the_rest_whole(
+        monkeypatch):
+    """At most 193 characters: the reason cut (an ellipsis) where the line would exceed it;
+    a reason quoted from an error is its first 60 characters at most."""
+    from hadim_cli.errors import HadimError
+
+    monkeypatch.setattr(runs, "opened", ["s.sqlite"])  # the store this process opened
+    head, tail = "run r cannot be read: the store is damaged (", "); see `hadim store check " \
+        "--store s.sqlite`"
+    line = runs.damage_line("r", "x" * 300)
+    assert len(line) == 193 and line.startswith(head + "x") and line.endswith("…" + tail)
+    assert runs.damage_line("r", "x" * 100) == head + "x" * 100 + tail
+    assert runs.short_reason(HadimError("y" * 61)) == "y" * 59 + "…"
+    assert runs.short_reason(HadimError("y" * 60)) == "y" * 60
