@@ -81,6 +81,20 @@ def test_bad_actions_are_refused(default_world: World, action: object) -> None:
     assert default_world.steps == 0
 
 
+@pytest.mark.parametrize(("action", "message"), [
+    ([[0.0, 0.0], 1.0], "action must be 2 numbers in [-1, 1], got [[0.0, 0.0], 1.0]"),
+    ("ab", "action must be 2 numbers in [-1, 1], got 'ab'"),
+    (np.zeros(3), "action must have shape (2,) (left, right), got shape (3,)"),
+    ((1.5, 0.0), "action intensities must be finite and in [-1, 1], got (1.5, 0.0)"),
+])
+def test_a_bad_actions_refusal_says_what_an_action_must_be_and_what_it_got(
+        default_world: World, action: object, message: str) -> None:
+    default_world.reset(seed=0)
+    with pytest.raises(ActionError) as refused:
+        default_world.step(action)
+    assert str(refused.value) == message
+
+
 @pytest.mark.parametrize("action", [(-1, 1), [1.0, -1.0], np.array([0.25, 0.5], np.float32)])
 def test_good_actions_are_accepted(default_world: World, action: object) -> None:
     default_world.reset(seed=0)
