@@ -13,7 +13,8 @@ already run (its source unchanged since) runs again only its mutants not yet kil
 not-yet-checked ones of an interrupted run, and the survivors, which a new test may now kill.
 A module whose source changed runs whole again. `--fresh-stats` forgets which tests reach which
 function (needed when an existing test starts reaching a function it did not; new tests are
-found by mutmut itself).
+found by mutmut itself). A `--sample` run first writes the mutants of modules never written or
+changed since (mutmut's generation step, none run), so that it draws from their names.
 
 The summary counts, per module, mutants killed / survived / timed out / not reached by any
 selected test, and the share killed out of those that are not listed as equivalent in
@@ -164,7 +165,36 @@ def to_run(path: str, sample: int | None = None) -> list[str]:
     return [n for n in todo if codes[n] is not None or n in drawn]
 
 
+# mutmut's generation step alone, as `mutmut run` begins (mutmut/__main__.py, `_run`): the
+# sources copied into mutants/ and every configured module's mutants written, none run.
+GENERATE = """
+import os, sys
+import mutmut.__main__ as m
+m.set_mutant_under_test("mutant_generation")
+os.makedirs("mutants", exist_ok=True)
+m.copy_src_dir()
+m.copy_also_copy_files()
+m.setup_source_paths()
+m.store_lines_covered_by_tests()
+print(m.create_mutants(int(sys.argv[1])))
+"""
+
+
+def generate(workers: int) -> int:
+    """Write the mutants of every configured module (those written already, of unchanged
+    sources, are kept with their results), so that a draw has names to draw from."""
+    print("writing the mutants (none run)", flush=True)
+    done = subprocess.run(["nice", "-n", str(NICE), sys.executable, "-c", GENERATE,
+                           str(workers)], cwd=ROOT)
+    return done.returncode
+
+
 def run(paths: list[str], workers: int, sample: int | None = None) -> int:
+    if sample is not None and any(results(p) is None or stale(p) for p in paths):
+        code = generate(workers)
+        if code:
+            print(f"mutmut's generation stopped with exit code {code}", file=sys.stderr)
+            return code
     for path in paths:
         names = to_run(path, sample)
         if not names:

@@ -15,6 +15,7 @@ from handmade import (
     ROBOT_LIDAR,
     TARGET_POSITION,
     TARGET_ROBOT,
+    TOOL_POSITION,
     Room,
     world_learner,
 )
@@ -27,7 +28,7 @@ from hadim_cli.learner.affordance import typical_step
 from hadim_cli.learner.controller import Controller, detour
 from hadim_cli.learner.goals import Binding
 from hadim_cli.learner.places import needed_context
-from hadim_cli.learner.spaces import Property, Role, RoleSpace, Rows
+from hadim_cli.learner.spaces import ACTION, Property, Role, RoleSpace, Rows
 from hadim_cli.world.world import World
 
 TASK = load_task("push-line")
@@ -468,3 +469,111 @@ def test_an_exact_navigation_level_imagines_the_robots_turns_by_the_rooms_physic
     room.affordance(np.array(t, dtype=np.int64), (ROBOT_HEADING,), out=ROBOT_HEADING)
     learned, exact = _first_actions_learned_and_exact(room, drive, np.array([0.3, 0.3]))
     assert learned[0] > learned[1] and exact[1] > exact[0]
+
+
+def _pushes(room: Room, mover: str, moved: str, n: int, rng: np.random.Generator) -> np.ndarray:
+    """`n` rows of `mover` pushing `moved` from straight behind, 3–6 cm in a random direction,
+    both at contact (the hand-built room's radii); returns their iterations."""
+    contact = sum(room.obs[room.layout.space(e, Property.RADIUS).slice][0] for e in (mover, moved))
+    room.episode()
+    t = []
+    for _ in range(n):
+        phi, move = rng.uniform(-np.pi, np.pi), rng.uniform(0.03, 0.06)
+        along = np.array([np.cos(phi), np.sin(phi)])
+        room.place(moved, [0.0, 0.0])
+        room.place(mover, -contact * along)
+        before = room.obs.copy()
+        room.place(mover, (move - contact) * along)
+        room.place(moved, move * along)
+        t.append(room.dataset.append(np.zeros(2), before, room.obs.copy()))
+    return np.array(t, dtype=np.int64)
+
+
+def _bound(room: Room, t: np.ndarray, inp, contexts, target: int, tool: int = -1):
+    """A(inp → target.position | contexts) fitted on the rows at `t` under a binding, added
+    to H."""
+    rows = Rows(t, np.full(t.size, target, dtype=np.int64), np.full(t.size, tool, dtype=np.int64))
+    aff = room.fitter.new_affordance(room.hierarchy.allocate_id(), inp, TARGET_POSITION,
+                                     tuple(contexts), rows, len(room.dataset),
+                                     np.random.default_rng(0))
+    room.hierarchy.add(aff, len(room.dataset))
+    return aff
+
+
+def test_a_three_level_chains_estimate_pays_the_robots_way_round_the_tool_and_its_turn():
+    """A tool chain (obj2 pushes obj1, the robot pushes obj2, the action drives the robot),
+    the tool 40 cm below its place behind obj1, the robot 30 cm behind its place behind the
+    tool, turned 0.5 rad off its way: the estimate handed to the observer is obj1's way in the
+    tool's pushes, plus the tool's way to its place in the robot's pushes, plus the robot's
+    way round the tool — the tool arrives square to the push it must make, so the robot must
+    go a quarter of the way round it (the sum of their radii times π/2), in drive steps — plus
+    the robot's way to its place in drive steps, plus its turn to face that way in turns."""
+    room = Room()
+    rng = np.random.default_rng(2)
+    moves = room.moves(rng, 80)
+    drive = room.affordance(moves, contexts=(ROBOT_HEADING,))
+    turner = room.affordance(moves, contexts=(ROBOT_HEADING,), out=ROBOT_HEADING)
+    push = _bound(room, _pushes(room, "robot", "obj2", 40, rng), ROBOT_POSITION, (TARGET_ROBOT,),
+                  target=2)
+    target_tool = RoleSpace(Role.TARGET, Property.POSITION, Role.TOOL)
+    tool = _bound(room, _pushes(room, "obj2", "obj1", 40, rng), TOOL_POSITION, (target_tool,),
+                  target=1, tool=2)
+    controller, config, pc = room.learner.controller, room.config, room.learner.controller.pc
+    steps = [max(typical_step(a, pc.step_quantile, config.zero_eps), 1e-3)
+             for a in (tool, push, drive, turner)]
+    # The pushes were seen from straight behind: each place lies on the line of its move.
+    for aff, step in zip((tool, push), steps[:2], strict=True):
+        place, x = needed_context(aff, np.array([step, 0.0]), np.zeros(2), np.array([True]),
+                                  zero_eps=config.zero_eps, k=2 * config.k_inverse,
+                                  support=pc.context_support, agreement=pc.agreement)
+        assert place[1] == pytest.approx(0.0, abs=1e-9) and place[0] > 0
+        assert x[1] == pytest.approx(0.0, abs=1e-9) and x[0] > 0
+    target, goal = np.array([0.3, 0.2]), np.array([0.9, 0.2])
+    tool_place = target - (0.12 + 0.12) * np.array([1.0, 0.0])
+    tool_at = tool_place - np.array([0.0, 0.4])
+    robot_place = tool_at - (0.15 + 0.12) * np.array([0.0, 1.0])
+    robot_at = robot_place - np.array([0.0, 0.3])
+    for name, xy in (("obj1", target), ("obj2", tool_at), ("obj3", [-0.8, 0.9]),
+                     ("robot", robot_at)):
+        room.place(name, xy)
+    heading = np.pi / 2 + 0.5
+    room.set("robot", Property.HEADING, [np.cos(heading), np.sin(heading)])
+    decisions = []
+    controller.observer = decisions.append
+    action = controller.act(room.obs, controller.pursue(tool, Binding(target=1, tool=2), goal,
+                                                        room.obs))
+    assert action is not None
+    turn = 2 * np.arcsin(min(steps[3] / 2, 1.0))
+    expected = (0.6 / steps[0] + 0.4 / steps[1] + (0.15 + 0.12) * (np.pi / 2) / steps[2]
+                + 0.3 / steps[2] + 0.5 / turn)
+    assert decisions[0].gaps == pytest.approx((0.4, 0.3))
+    assert decisions[0].to_go == pytest.approx(expected, rel=1e-6)
+
+
+def test_a_driver_that_needs_a_tool_is_passed_over_for_the_next_when_none_is_bound():
+    """Two drives of the robot: the more competent reads the tool (its radius), the other,
+    learned from noise, does not. Pushing obj1 with no tool bound, the chain passes over the
+    first and takes the second, and the controller acts."""
+    room = Room()
+    rng = np.random.default_rng(2)
+    clean, noise = room.moves(rng, 80), room.moves(rng, 80, noise=True)
+    plain = room.affordance(noise, contexts=(ROBOT_HEADING,))
+    rows = Rows(clean, np.full(clean.size, -1, dtype=np.int64),
+                np.full(clean.size, 2, dtype=np.int64))
+    with_tool = room.fitter.new_affordance(
+        room.hierarchy.allocate_id(), ACTION, ROBOT_POSITION,
+        (ROBOT_HEADING, RoleSpace(Role.TOOL, Property.RADIUS)), rows, len(room.dataset),
+        np.random.default_rng(0))
+    room.hierarchy.add(with_tool, len(room.dataset))
+    assert with_tool.has_tool and with_tool.competence > plain.competence
+    push = _bound(room, _pushes(room, "robot", "obj1", 40, rng), ROBOT_POSITION, (TARGET_ROBOT,),
+                  target=1)
+    controller = room.learner.controller
+    chain = controller.chain(push, Binding(target=1))
+    assert chain is not None and [lv.affordance for lv in chain] == [push, plain]
+    room.place("obj1", [0.3, 0.2])
+    room.place("robot", [-0.3, 0.2])
+    room.set("robot", Property.HEADING, [1.0, 0.0])
+    goal = np.array([0.8, 0.2])
+    assert controller.act(room.obs, controller.pursue(push, Binding(target=1), goal,
+                                                      room.obs)) is not None

@@ -81,6 +81,20 @@ def test_bad_actions_are_refused(default_world: World, action: object) -> None:
     assert default_world.steps == 0
 
 
+@pytest.mark.parametrize(("action", "message"), [
+    ([[0.0, 0.0], 1.0], "action must be 2 numbers in [-1, 1], got [[0.0, 0.0], 1.0]"),
+    ("ab", "action must be 2 numbers in [-1, 1], got 'ab'"),
+    (np.zeros(3), "action must have shape (2,) (left, right), got shape (3,)"),
+    ((1.5, 0.0), "action intensities must be finite and in [-1, 1], got (1.5, 0.0)"),
+])
+def test_a_bad_actions_refusal_says_what_an_action_must_be_and_what_it_got(
+        default_world: World, action: object, message: str) -> None:
+    default_world.reset(seed=0)
+    with pytest.raises(ActionError) as refused:
+        default_world.step(action)
+    assert str(refused.value) == message
+
+
 @pytest.mark.parametrize("action", [(-1, 1), [1.0, -1.0], np.array([0.25, 0.5], np.float32)])
 def test_good_actions_are_accepted(default_world: World, action: object) -> None:
     default_world.reset(seed=0)
@@ -145,7 +159,7 @@ def test_episode_counts_steps() -> None:
 def test_the_layout_and_the_scenes_a_world_takes_are_those_of_its_room() -> None:
     """In a room 5 m wide and 3 m high, positions are bounded by half its sides and relative
     positions by its sides; a scene whose robot or object leaves it, by either side, is
-    refused, and one that fits in a corner is taken."""
+    refused, and one that fits in a corner, or whose object touches a wall, is taken."""
     lay = World(config(room_width=5.0, room_height=3.0)).layout
     for entity in ("robot", "obj1"):
         pos = lay.space(entity, "position")
@@ -154,8 +168,18 @@ def test_the_layout_and_the_scenes_a_world_takes_are_those_of_its_room() -> None
     assert (rel.low, rel.high) == ((-5.0, -3.0), (5.0, 3.0))
     world = World(config(room_width=5.0, room_height=3.0, n_green=1, n_red=0))
     world.reset(scene=Scene(objects=(green(2.35, 1.35),), robot_x=-2.3, robot_y=-1.3))
+    world.reset(scene=Scene(objects=(green(2.5 - 0.125, 0.0, radius=0.125),)))  # at the wall
     for scene in (Scene(objects=(green(2.45, 0.0),)), Scene(objects=(green(0.0, -1.45),)),
                   Scene(objects=(green(1.0, 1.0),), robot_x=-2.4),
                   Scene(objects=(green(1.0, 1.0),), robot_y=1.4)):
         with pytest.raises(HadimError, match=r"outside the 5\.0x3\.0 m room"):
             world.reset(scene=scene)
+
+
+def test_a_world_has_no_scene_before_its_first_episode() -> None:
+    world = World(config(n_green=1, n_red=0))
+    with pytest.raises(HadimError, match=r"^the world has no episode yet: call reset\(\) first$"):
+        world.scene  # noqa: B018 — the property refuses
+    scene = Scene(objects=(green(1.0, 1.0),))
+    world.reset(scene=scene)
+    assert world.scene == scene
