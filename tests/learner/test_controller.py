@@ -468,3 +468,40 @@ def test_an_exact_navigation_level_imagines_the_robots_turns_by_the_rooms_physic
     room.affordance(np.array(t, dtype=np.int64), (ROBOT_HEADING,), out=ROBOT_HEADING)
     learned, exact = _first_actions_learned_and_exact(room, drive, np.array([0.3, 0.3]))
     assert learned[0] > learned[1] and exact[1] > exact[0]
+
+
+def _stuck_forward(room: Room, drive, goal: np.ndarray, actions: int):
+    """A pursuit of `goal` by the hand-built drive (accurate: `Room.moves`' law) from the
+    origin facing +x, in a world where the robot cannot move at all (pressed against
+    something no observation holds, as an arm's joint at its limit): every action turns it
+    by the drive's law and leaves it where it is. Returns the actions taken."""
+    room.place("robot", [0.0, 0.0])
+    room.set("robot", Property.HEADING, [1.0, 0.0])
+    controller = room.learner.controller
+    pursuit = controller.pursue(drive, Binding(), goal, room.obs)
+    taken = []
+    for _ in range(actions):
+        action = controller.act(room.obs, pursuit)
+        if action is None:
+            break
+        taken.append(tuple(action))
+        heading = room.obs[room.layout.space("robot", Property.HEADING).slice]
+        turned = np.arctan2(heading[1], heading[0]) + 0.3 * (action[1] - action[0])
+        room.set("robot", Property.HEADING, [np.cos(turned), np.sin(turned)])
+    return taken
+
+
+def test_a_command_that_did_not_do_what_its_model_said_is_not_asked_again_there():
+    """The drive's model says full forward moves the robot 5 cm towards its goal; the world
+    does not move it. The pursuit keeps what its commands did: it does not ask a command
+    again from where it did nothing (without that, the search asks full forward from the
+    same observation at every action), and a new pursuit starts without what the last one
+    learned."""
+    room = Room()
+    drive = room.affordance(room.moves(np.random.default_rng(3), 300),
+                            contexts=(ROBOT_HEADING,))
+    goal = np.array([0.5, 0.0])
+    taken = _stuck_forward(room, drive, goal, 6)
+    assert taken and taken[0] == (1.0, 1.0)
+    assert len(set(taken)) == len(taken), taken
+    assert _stuck_forward(room, drive, goal, 1) == [(1.0, 1.0)]
