@@ -472,9 +472,9 @@ def test_an_exact_navigation_level_imagines_the_robots_turns_by_the_rooms_physic
 
 def _stuck_forward(room: Room, drive, goal: np.ndarray, actions: int):
     """A pursuit of `goal` by the hand-built drive (accurate: `Room.moves`' law) from the
-    origin facing +x, in a world where the robot cannot move at all (pressed against
-    something no observation holds, as an arm's joint at its limit): every action turns it
-    by the drive's law and leaves it where it is. Returns the actions taken."""
+    origin facing +x, in a world where the robot is held (pressed against something no
+    observation holds, as an arm's joint at its limit): every action only slips it 2 mm
+    sideways, without turning it. Returns the actions taken."""
     room.place("robot", [0.0, 0.0])
     room.set("robot", Property.HEADING, [1.0, 0.0])
     controller = room.learner.controller
@@ -485,17 +485,16 @@ def _stuck_forward(room: Room, drive, goal: np.ndarray, actions: int):
         if action is None:
             break
         taken.append(tuple(action))
-        heading = room.obs[room.layout.space("robot", Property.HEADING).slice]
-        turned = np.arctan2(heading[1], heading[0]) + 0.3 * (action[1] - action[0])
-        room.set("robot", Property.HEADING, [np.cos(turned), np.sin(turned)])
+        here = room.obs[room.layout.space("robot", Property.POSITION).slice]
+        room.place("robot", here + [0.0, 0.002])
     return taken
 
 
 def test_a_command_that_did_not_do_what_its_model_said_is_not_asked_again_there():
     """The drive's model says full forward moves the robot 5 cm towards its goal; the world
-    does not move it. The pursuit keeps what its commands did: it does not ask a command
-    again from where it did nothing (without that, the search asks full forward from the
-    same observation at every action), and a new pursuit starts without what the last one
+    barely moves it. The pursuit keeps what its commands did: it does not ask a command
+    again from within half a step of where it did nothing (without that, the search asks
+    full forward at every action), and a new pursuit starts without what the last one
     learned."""
     room = Room()
     drive = room.affordance(room.moves(np.random.default_rng(3), 300),
