@@ -314,7 +314,8 @@ class Fitter:
             model.add(s.x, s.c, s.y)
         return model
 
-    def competence(self, model: Model, rng: np.random.Generator) -> float:
+    def competence(self, model: Model, rng: np.random.Generator,
+                   moments: np.ndarray | None = None) -> float:
         if model.n < 3:
             return 0.0
         # Errors relative to the width of the output's range: C(e) of the authors expects e of
@@ -323,13 +324,16 @@ class Fitter:
         scale = per_model(model, ("range", eps), lambda y: range_scale(y, eps))
         report = model_competence(model, zero_eps=self.config.zero_eps,
                                   sharpness=self.config.competence_sharpness,
-                                  max_rows=self.config.competence_rows, rng=rng, scale=scale)
+                                  max_rows=self.config.competence_rows, rng=rng, scale=scale,
+                                  moments=moments,
+                                  window=self.config.random_sequence_length)
         return float(report.competence)
 
     def trial(self, inp: RoleSpace, out: RoleSpace, contexts: tuple[RoleSpace, ...],
               rows: Rows, rng: np.random.Generator) -> float:
-        """Competence of a candidate affordance fitted on `rows`."""
-        return self.competence(self.fit(inp, out, contexts, rows, trial=True), rng)
+        """Competence of a candidate affordance fitted on `rows`, each row predicted from
+        other moments than its own (`LocalLinearModel.predict_loo`'s `moments`)."""
+        return self.competence(self.fit(inp, out, contexts, rows, trial=True), rng, rows.t)
 
     def new_affordance(self, aid: int, inp: RoleSpace, out: RoleSpace,
                        contexts: tuple[RoleSpace, ...], rows: Rows, iteration: int,
