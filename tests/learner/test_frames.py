@@ -391,7 +391,8 @@ def test_a_framed_model_predicts_a_row_from_other_moments_as_its_inner_model_doe
     rng = np.random.default_rng(5)
     runs, length = 100, 5
     r = np.repeat(rng.normal(0, 1, (runs, 2)), length, 0)
-    x = np.repeat(rng.uniform(-1, 1, (runs, 2)), length, 0) + rng.normal(0, 1e-3, (runs * length, 2))
+    x = np.repeat(rng.uniform(-1, 1, (runs, 2)), length, 0)
+    x = x + rng.normal(0, 1e-3, x.shape)
     y = 0.1 * x + np.repeat(rng.normal(0, 0.3, (runs, 2)), length, 0)
     model = FramedModel(2, 2, [2], Frame(0, True, True), k_forward=4)
     model.add(x, r, y)
