@@ -314,8 +314,7 @@ class Fitter:
             model.add(s.x, s.c, s.y)
         return model
 
-    def competence(self, model: Model, rng: np.random.Generator,
-                   moments: np.ndarray | None = None) -> float:
+    def competence(self, model: Model, rng: np.random.Generator) -> float:
         if model.n < 3:
             return 0.0
         # Errors relative to the width of the output's range: C(e) of the authors expects e of
@@ -324,16 +323,13 @@ class Fitter:
         scale = per_model(model, ("range", eps), lambda y: range_scale(y, eps))
         report = model_competence(model, zero_eps=self.config.zero_eps,
                                   sharpness=self.config.competence_sharpness,
-                                  max_rows=self.config.competence_rows, rng=rng, scale=scale,
-                                  moments=moments,
-                                  window=self.config.random_sequence_length)
+                                  max_rows=self.config.competence_rows, rng=rng, scale=scale)
         return float(report.competence)
 
     def trial(self, inp: RoleSpace, out: RoleSpace, contexts: tuple[RoleSpace, ...],
               rows: Rows, rng: np.random.Generator) -> float:
-        """Competence of a candidate affordance fitted on `rows`, each row predicted from
-        other moments than its own (`LocalLinearModel.predict_loo`'s `moments`)."""
-        return self.competence(self.fit(inp, out, contexts, rows, trial=True), rng, rows.t)
+        """Competence of a candidate affordance fitted on `rows`."""
+        return self.competence(self.fit(inp, out, contexts, rows, trial=True), rng)
 
     def new_affordance(self, aid: int, inp: RoleSpace, out: RoleSpace,
                        contexts: tuple[RoleSpace, ...], rows: Rows, iteration: int,

@@ -77,8 +77,7 @@ def evaluation_rows(zero: np.ndarray, max_rows: int | None,
 
 def model_competence(model: Model, *, zero_eps: float, sharpness: float = 20.0,
                      max_rows: int | None = None, rng: np.random.Generator | None = None,
-                     zero_weight: float = 0.5, scale: float | None = None,
-                     moments: np.ndarray | None = None, window: int = 0) -> CompetenceReport:
+                     zero_weight: float = 0.5, scale: float | None = None) -> CompetenceReport:
     """Held-out competence of `model`'s forward model (see the module docstring).
 
     `zero_eps`: outcomes with ‖y‖ ≤ zero_eps count as "nothing moved". `max_rows`: evaluate
@@ -95,8 +94,8 @@ def model_competence(model: Model, *, zero_eps: float, sharpness: float = 20.0,
     rows = evaluation_rows(zero, max_rows, rng)
     if scale is None:
         scale = rms_scale(y[~zero])
-    estimate = model.predict_loo(rows, moments=moments, window=window)
-    c = competence_of_error(normalised_errors(estimate, y[rows], scale), sharpness)
+    c = competence_of_error(normalised_errors(model.predict_loo(rows), y[rows], scale),
+                            sharpness)
     z = zero[rows]
     n_zero, n_nonzero = int(z.sum()), int((~z).sum())
     nonzero_c = float(c[~z].mean()) if n_nonzero else 0.0
