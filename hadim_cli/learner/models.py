@@ -227,8 +227,7 @@ class Model(Protocol):
 
     def predict(self, x: np.ndarray, c: np.ndarray | None = None) -> np.ndarray: ...
 
-    def predict_loo(self, indices: np.ndarray | Sequence[int] | None = None, *,
-                    moments: np.ndarray | None = None, window: int = 0) -> np.ndarray: ...
+    def predict_loo(self, indices: np.ndarray | Sequence[int] | None = None) -> np.ndarray: ...
 
     def infer(self, y_goal: np.ndarray, c: np.ndarray | None = None, *,
               n_candidates: int | None = None) -> InverseResult: ...
@@ -364,9 +363,7 @@ class LocalLinearModel:
         best from other moments (mean error; the first of equals): each row without the
         `MOMENT_ROWS` stored before and after it (see the module doc)."""
         y = self._data[:self._n, self.dx + self.dc:]
-        order = np.arange(self._n)
-        errors = [float(np.mean(np.linalg.norm(self._loo(None, k, order, MOMENT_ROWS) - y,
-                                               axis=1)))
+        errors = [float(np.mean(np.linalg.norm(self._loo(None, k, MOMENT_ROWS) - y, axis=1)))
                   for k in self.k_choices]
         self.k_fit = self.k_choices[int(np.argmin(errors))]
         self._chosen_at = self._n
@@ -395,39 +392,35 @@ class LocalLinearModel:
         """Local dy/dx (Q, dy, dx) of the forward model at (x, c), from the same local fits."""
         return self._jacobian_of(self._fit_at(x, c))
 
-    def predict_loo(self, indices: np.ndarray | Sequence[int] | None = None, *,
-                    moments: np.ndarray | None = None, window: int = 0) -> np.ndarray:
+    def predict_loo(self, indices: np.ndarray | Sequence[int] | None = None) -> np.ndarray:
         """Leave-one-out predictions (len(indices), dy) of stored rows (all rows by default).
 
         Each row is left out of its own neighbourhood (if it has duplicates, they stay).
-        With `moments` (one per stored row: when it was recorded, in actions), the rows
-        within `window` of a row's moment are left out of its neighbourhood too, as long as
-        enough others remain (h-block cross-validation: a row is predicted from other
-        moments, not from the actions just before and after it, which are nearly itself).
         """
         if self._n < 2:
             raise ValueError(f"leave-one-out needs at least 2 rows, the model has {self._n}")
-        return self._loo(indices, self.k_fit, moments, window)
+        return self._loo(indices, self.k_fit)
 
     def _loo(self, indices: np.ndarray | Sequence[int] | None, k_fit: int,
-             moments: np.ndarray | None = None, window: int = 0) -> np.ndarray:
-        """`predict_loo` with forward fits of `k_fit` neighbours."""
+             window: int = 0) -> np.ndarray:
+        """`predict_loo` with forward fits of `k_fit` neighbours; with a `window`, the rows
+        stored within it of a row are left out of its neighbourhood too, as long as enough
+        others remain (they fill in, nearest first; the row itself never)."""
         idx = np.arange(self._n) if indices is None else np.asarray(indices, dtype=np.int64)
         if idx.size == 0:
             return np.empty((0, self.dy))
         z = self._data[idx][:, :self.dx + self.dc]
         k = min(k_fit, self._n - 1)
-        if moments is None or window <= 0:
+        if window <= 0:
             dist, nb = self._query(_FORWARD, z, k + 1)
             drop = nb == idx[:, None]
             drop[~drop.any(axis=1), -1] = True  # self not among the k+1 (duplicates): the last
             keep = ~drop
             dist, nb = dist[keep].reshape(idx.size, k), nb[keep].reshape(idx.size, k)
             return self._local_fit(z, dist, nb).value
-        moments = np.asarray(moments)
         dist, nb = self._query(_FORWARD, z, min(k + 2 * window + 1, self._n))
         own = nb == idx[:, None]
-        near = np.abs(moments[nb] - moments[idx][:, None]) <= window
+        near = np.abs(nb - idx[:, None]) <= window
         # Others first (nearest first), then rows of the same moment, the row itself last.
         order = np.argsort(near.astype(np.int8) + 2 * own, axis=1, kind="stable")[:, :k]
         dist, nb = np.take_along_axis(dist, order, 1), np.take_along_axis(nb, order, 1)

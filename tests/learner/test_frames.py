@@ -383,20 +383,3 @@ def test_the_arm_s_motion_is_framed_by_its_orientation_and_generalises_round_its
     room_error = float(np.median(np.linalg.norm(room.predict(qx, qc) - qy, axis=1)))
     assert framed_error < 0.2 * scale
     assert room_error > 3 * framed_error
-
-
-def test_a_framed_model_predicts_a_row_from_other_moments_as_its_inner_model_does():
-    """`moments` reach the inner model: in runs of nearly the same row, each with its own
-    offset, a row predicted from other runs is off by the offsets, not by nothing."""
-    rng = np.random.default_rng(5)
-    runs, length = 100, 5
-    r = np.repeat(rng.normal(0, 1, (runs, 2)), length, 0)
-    x = np.repeat(rng.uniform(-1, 1, (runs, 2)), length, 0)
-    x = x + rng.normal(0, 1e-3, x.shape)
-    y = 0.1 * x + np.repeat(rng.normal(0, 0.3, (runs, 2)), length, 0)
-    model = FramedModel(2, 2, [2], Frame(0, True, True), k_forward=4)
-    model.add(x, r, y)
-    moments = np.arange(runs * length)
-    loo = np.linalg.norm(model.predict_loo() - y, axis=1).mean()
-    blocked = np.linalg.norm(model.predict_loo(moments=moments, window=4) - y, axis=1).mean()
-    assert loo < 0.02 < 0.2 < blocked, (loo, blocked)

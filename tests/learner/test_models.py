@@ -369,32 +369,3 @@ def test_an_inverse_answer_is_remembered_for_its_goal_and_its_context() -> None:
         fresh.add(x, c, y)
         np.testing.assert_array_equal(answer, fresh.infer(goal, ctx).x)
     assert np.linalg.norm(asked[0] - asked[1]) > 0.1
-
-
-def _runs_of_a_moment(rng: np.random.Generator, runs: int, length: int):
-    """Rows recorded in runs of `length` actions, each run one moment: within a run the
-    input and context barely change and the outcome carries the run's own offset (what no
-    context holds), as consecutive actions of one pursuit do. Returns (x, c, y, moments)."""
-    x0, c0 = rng.uniform(-1, 1, (runs, 2)), rng.uniform(0, 5, (runs, 2))
-    offset = rng.normal(0.0, 0.3, (runs, 2))
-    x = np.repeat(x0, length, 0) + rng.normal(0, 1e-3, (runs * length, 2))
-    c = np.repeat(c0, length, 0)
-    y = x @ A.T + c @ B.T + np.repeat(offset, length, 0)
-    return x, c, y, np.arange(runs * length)
-
-
-def test_rows_of_the_same_moment_are_left_out_of_a_rows_own_prediction():
-    """Leave-one-out predicts a row from the actions just before and after it, nearly
-    itself: its error hides the run's offset. With `moments` and a window of a run's
-    length, the row is predicted from other runs, and the error is the offsets'."""
-    x, c, y, moments = _runs_of_a_moment(np.random.default_rng(4), 120, 5)
-    model = LocalLinearModel(2, 2, [2], k_forward=4)
-    model.add(x, c, y)
-    loo = np.linalg.norm(model.predict_loo() - y, axis=1).mean()
-    blocked = np.linalg.norm(model.predict_loo(moments=moments, window=4) - y, axis=1).mean()
-    assert loo < 0.02 < 0.2 < blocked, (loo, blocked)
-    # A window wider than the data leaves no others: the nearest rows fill in, the row itself
-    # still left out (plain leave-one-out).
-    small = LocalLinearModel(2, 2, [2], k_forward=4)
-    small.add(x[:10], c[:10], y[:10])
-    assert np.allclose(small.predict_loo(moments=moments[:10], window=50), small.predict_loo())
