@@ -227,7 +227,8 @@ class Model(Protocol):
 
     def predict(self, x: np.ndarray, c: np.ndarray | None = None) -> np.ndarray: ...
 
-    def predict_loo(self, indices: np.ndarray | Sequence[int] | None = None) -> np.ndarray: ...
+    def predict_loo(self, indices: np.ndarray | Sequence[int] | None = None,
+                    neighbours: int | None = None) -> np.ndarray: ...
 
     def infer(self, y_goal: np.ndarray, c: np.ndarray | None = None, *,
               n_candidates: int | None = None) -> InverseResult: ...
@@ -392,14 +393,16 @@ class LocalLinearModel:
         """Local dy/dx (Q, dy, dx) of the forward model at (x, c), from the same local fits."""
         return self._jacobian_of(self._fit_at(x, c))
 
-    def predict_loo(self, indices: np.ndarray | Sequence[int] | None = None) -> np.ndarray:
-        """Leave-one-out predictions (len(indices), dy) of stored rows (all rows by default).
+    def predict_loo(self, indices: np.ndarray | Sequence[int] | None = None,
+                    neighbours: int | None = None) -> np.ndarray:
+        """Leave-one-out predictions (len(indices), dy) of stored rows (all rows by default),
+        by forward fits of the model's own neighbourhood or of `neighbours`.
 
         Each row is left out of its own neighbourhood (if it has duplicates, they stay).
         """
         if self._n < 2:
             raise ValueError(f"leave-one-out needs at least 2 rows, the model has {self._n}")
-        return self._loo(indices, self.k_fit)
+        return self._loo(indices, self.k_fit if neighbours is None else neighbours)
 
     def _loo(self, indices: np.ndarray | Sequence[int] | None, k_fit: int,
              window: int = 0) -> np.ndarray:
