@@ -282,9 +282,10 @@ class LearnerConfig:
     """Primitive actions of one random-action learning episode (motor babbling)."""
     k_forward: int = 10
     """Neighbours of the forward model's local linear fit (until `k_choices` chose one)."""
-    k_choices: tuple[int, ...] = (10, 20, 30)
+    k_choices: tuple[int, ...] = (10, 20, 30, 60)
     """Neighbourhoods each model's forward fits may take: whenever its rows have doubled
-    (from 32), the one of least leave-one-out error on them (`LocalLinearModel.k_choices`).
+    (from 32), the one that predicts them best from other moments (each row without the
+    actions just before and after it: `LocalLinearModel._choose_k`).
     Fitted on 10 neighbours, the push model answered a push 5° off its contact line with an
     outcome 40° off, and the planner could not steer on it (docs/algorithm.md, "each model
     chooses its forward neighbourhood"). Empty: always `k_forward`."""

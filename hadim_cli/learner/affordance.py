@@ -315,6 +315,12 @@ class Fitter:
         return model
 
     def competence(self, model: Model, rng: np.random.Generator) -> float:
+        """Held-out competence of `model`, its rows left out one by one and predicted by fits
+        of `k_forward` neighbours, the neighbourhood of every context trial: competences
+        compare like with like, whatever neighbourhood each model predicts with (the one
+        chosen on rows of other moments is wider, and its leave-one-out error larger, where
+        rows repeat themselves; a change of it must not read as the data no longer
+        matching)."""
         if model.n < 3:
             return 0.0
         # Errors relative to the width of the output's range: C(e) of the authors expects e of
@@ -323,7 +329,8 @@ class Fitter:
         scale = per_model(model, ("range", eps), lambda y: range_scale(y, eps))
         report = model_competence(model, zero_eps=self.config.zero_eps,
                                   sharpness=self.config.competence_sharpness,
-                                  max_rows=self.config.competence_rows, rng=rng, scale=scale)
+                                  max_rows=self.config.competence_rows, rng=rng, scale=scale,
+                                  neighbours=self.config.k_forward)
         return float(report.competence)
 
     def trial(self, inp: RoleSpace, out: RoleSpace, contexts: tuple[RoleSpace, ...],

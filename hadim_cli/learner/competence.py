@@ -77,7 +77,8 @@ def evaluation_rows(zero: np.ndarray, max_rows: int | None,
 
 def model_competence(model: Model, *, zero_eps: float, sharpness: float = 20.0,
                      max_rows: int | None = None, rng: np.random.Generator | None = None,
-                     zero_weight: float = 0.5, scale: float | None = None) -> CompetenceReport:
+                     zero_weight: float = 0.5, scale: float | None = None,
+                     neighbours: int | None = None) -> CompetenceReport:
     """Held-out competence of `model`'s forward model (see the module docstring).
 
     `zero_eps`: outcomes with ‖y‖ ≤ zero_eps count as "nothing moved". `max_rows`: evaluate
@@ -85,7 +86,8 @@ def model_competence(model: Model, *, zero_eps: float, sharpness: float = 20.0,
     `zero_weight`: weight of the zero-outcome score when both groups are present (0.5: their
     mean). Note that with 0.5 a model that only knows when nothing moves still scores ≈ 0.5.
     `scale`: the length errors are divided by (default: the RMS norm of the non-zero outputs;
-    `range_scale` gives the width of the space's range instead).
+    `range_scale` gives the width of the space's range instead). `neighbours`: the forward
+    fits' neighbourhood (default: the model's own).
     """
     _, _, y = model.data()
     zero = split_zero(y, zero_eps)
@@ -94,8 +96,8 @@ def model_competence(model: Model, *, zero_eps: float, sharpness: float = 20.0,
     rows = evaluation_rows(zero, max_rows, rng)
     if scale is None:
         scale = rms_scale(y[~zero])
-    c = competence_of_error(normalised_errors(model.predict_loo(rows), y[rows], scale),
-                            sharpness)
+    c = competence_of_error(normalised_errors(model.predict_loo(rows, neighbours), y[rows],
+                                              scale), sharpness)
     z = zero[rows]
     n_zero, n_nonzero = int(z.sum()), int((~z).sum())
     nonzero_c = float(c[~z].mean()) if n_nonzero else 0.0

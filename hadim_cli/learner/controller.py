@@ -89,6 +89,12 @@ class Pursuit:
     """Per state of `seen`, what the search learned its estimate falls short by: the
     least estimate of its successors plus the action, less its own (learning real-time
     search, Korf 1990)."""
+    tried: list[tuple[np.ndarray, int, np.ndarray]] = field(default_factory=list)
+    """What its commands did: per action taken, the state it was taken from (`_key`), the
+    command (its index in `Controller.commands`) and the change it made to the bottom
+    level's output, observed at the next action."""
+    last: tuple[np.ndarray, int] | None = None
+    """The observation the last action was taken from, and its command's index."""
 
 
 @dataclass(frozen=True)
@@ -130,6 +136,8 @@ class _Found(NamedTuple):
     raises it by there, and each level's gap and the label for the trace."""
 
     action: np.ndarray | None
+    command: int
+    """The action's index in `Controller.commands` (-1 with no action)."""
     predicted: float
     now: float
     raised: float
@@ -265,6 +273,7 @@ class Controller:
         plan = self._plan(obs, pursuit)
         if plan is None:
             return None
+        self._learn_what_it_did(obs, plan, pursuit)
         found = self._search(obs, plan, pursuit)
         here = found.now + found.raised
         if pursuit.used == 0:
@@ -278,6 +287,7 @@ class Controller:
         if found.predicted > here + 1e-9:
             pursuit.seen.append(self._key(obs[None], plan)[0])
             pursuit.raised.append(found.predicted - found.now)
+        pursuit.last = (obs.copy(), found.command)
         pursuit.used += 1
         if self.observer is not None:
             self.observer(Decision(found.action.copy(), found.now, found.predicted, found.label,
@@ -394,9 +404,11 @@ class Controller:
         return _Plan(levels, pursuit.goal, steps, turner, turn, places, inputs)
 
     # ------------------------------------------------------------------ imagining
-    def _imagine(self, arr: np.ndarray, plan: _Plan) -> tuple[np.ndarray, np.ndarray]:
+    def _imagine(self, arr: np.ndarray, plan: _Plan, pursuit: Pursuit
+                 ) -> tuple[np.ndarray, np.ndarray]:
         """Every command from each observation of `arr` (M, D), imagined through the chain:
-        the observations after (M·N, D), and the mask of those the hard constraints allow."""
+        the observations after (M·N, D), and the mask of those the hard constraints allow.
+        A command the pursuit took from near a state does there what it did (`_did`)."""
         n = self.commands.shape[0]
         before = np.repeat(arr, n, 0)
         after = before.copy()
@@ -415,6 +427,8 @@ class Controller:
                     y[hit] = aff.model.predict(x[hit], None if c is None else c[hit])
             else:
                 y = aff.model.predict(x, c)
+            if aff.input is ACTION:
+                self._did(arr, plan, pursuit, y)
             self._write(after, lv.moved, aff.output.prop, y)
             x = y
         bottom, turner = plan.levels[-1], plan.turner
@@ -568,7 +582,7 @@ class Controller:
         that total; no command when the constraints allow none. The observation is costed
         with its first successors, in one pass."""
         n = self.commands.shape[0]
-        after, ok = self._imagine(obs[None], plan)
+        after, ok = self._imagine(obs[None], plan, pursuit)
         after, origin = after[ok], np.flatnonzero(ok)
         rows = np.concatenate([obs[None], after])
         estimate, gaps, label = self._to_go(rows, plan, trace=True)
@@ -579,7 +593,7 @@ class Controller:
         states, first = obs[None], np.zeros(1, dtype=np.int64)
         for depth in range(1, self.pc.horizon + 1):
             if depth > 1:
-                after, ok = self._imagine(states, plan)
+                after, ok = self._imagine(states, plan, pursuit)
                 after, origin = after[ok], np.repeat(first, n)[ok]
                 to_go = self._to_go(after, plan) + self._raised(after, plan, pursuit)
             if after.shape[0] == 0:
@@ -591,8 +605,9 @@ class Controller:
             keep = np.argsort(total, kind="stable")[:self.pc.beam]
             states, first = after[keep], origin[keep]
         if best is None:
-            return _Found(None, np.inf, now, here_raised, gaps, label)
-        return _Found(self.commands[best[1]].copy(), best[0], now, here_raised, gaps, label)
+            return _Found(None, -1, np.inf, now, here_raised, gaps, label)
+        return _Found(self.commands[best[1]].copy(), best[1], best[0], now, here_raised,
+                      gaps, label)
 
     def _key(self, arr: np.ndarray, plan: _Plan) -> np.ndarray:
         """Where the chain's bodies are in each observation of `arr`, in actions: positions
@@ -606,19 +621,52 @@ class Controller:
             key.append(np.arctan2(h[:, 1:2], h[:, 0:1]) / plan.turn)
         return np.concatenate(key, 1)
 
+    def _apart(self, arr: np.ndarray, plan: _Plan, keys: list[np.ndarray]) -> np.ndarray:
+        """How far (M, R) each observation of `arr` is from each state of `keys` (`_key`), in
+        actions: the largest of the bodies' moves and the turn between them."""
+        key, seen = self._key(arr, plan), np.stack(keys)
+        diff = key[:, None, :] - seen[None, :, :]
+        if np.isfinite(plan.turn):
+            diff[..., -1] = (diff[..., -1] + np.pi / plan.turn) % (2 * np.pi / plan.turn) \
+                - np.pi / plan.turn
+        return np.max(np.abs(diff), axis=2)
+
     def _raised(self, arr: np.ndarray, plan: _Plan, pursuit: Pursuit) -> np.ndarray:
         """What the pursuit learned the estimate falls short by at each observation of
         `arr`: the most of the states it acted from within half the finest command of it."""
         if not pursuit.seen:
             return np.zeros(arr.shape[0])
-        key, seen = self._key(arr, plan), np.stack(pursuit.seen)
-        diff = key[:, None, :] - seen[None, :, :]
-        if np.isfinite(plan.turn):
-            diff[..., -1] = (diff[..., -1] + np.pi / plan.turn) % (2 * np.pi / plan.turn) \
-                - np.pi / plan.turn
-        near = np.max(np.abs(diff), axis=2) <= self._fine / 2
+        near = self._apart(arr, plan, pursuit.seen) <= self._fine / 2
         return np.max(np.where(near, np.asarray(pursuit.raised)[None, :], 0.0), axis=1)
 
+    def _learn_what_it_did(self, obs: np.ndarray, plan: _Plan, pursuit: Pursuit) -> None:
+        """Keep what the last command did to the bottom level's output (`Pursuit.tried`)."""
+        if pursuit.last is None:
+            return
+        before, command = pursuit.last
+        bottom = plan.levels[-1]
+        space, b = bottom.affordance.output, bottom.binding
+        change = self._value(space, obs, b) - self._value(space, before, b)
+        pursuit.tried.append((self._key(before[None], plan)[0], command, change))
+        pursuit.last = None
+
+    def _did(self, arr: np.ndarray, plan: _Plan, pursuit: Pursuit, y: np.ndarray) -> None:
+        """Replace in `y` (M·N, output) the bottom level's predictions of every command the
+        pursuit took from within half a step of an observation of `arr` (M, D) by what it did
+        there, the nearest such state's: where the model is wrong (an arm pressing a joint
+        against its limit, a robot against a fixed body), the search learns it from the
+        actions that proved it, and stops asking for the same move."""
+        if not pursuit.tried:
+            return
+        keys, commands, changes = zip(*pursuit.tried, strict=True)
+        apart = self._apart(arr, plan, list(keys))
+        n = self.commands.shape[0]
+        commands = np.asarray(commands)
+        for command in np.unique(commands):
+            mine = np.flatnonzero(commands == command)
+            nearest = mine[np.argmin(apart[:, mine], axis=1)]
+            rows = np.flatnonzero(apart[np.arange(arr.shape[0]), nearest] <= 0.5)
+            y[rows * n + command] = np.asarray(changes)[nearest[rows]]
 
 @functools.lru_cache(maxsize=64)
 def _obstacles(chain: tuple[tuple[int, int], ...], entity: int, n_entities: int

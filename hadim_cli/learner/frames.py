@@ -381,10 +381,12 @@ class FramedModel:
         fx, fc, u = self._framed(x, self._require_context(c))
         return self._vector(self.inner.predict(fx, fc), u, self.frame.y, back=True)
 
-    def predict_loo(self, indices: np.ndarray | Sequence[int] | None = None) -> np.ndarray:
+    def predict_loo(self, indices: np.ndarray | Sequence[int] | None = None,
+                    neighbours: int | None = None) -> np.ndarray:
         idx = np.arange(self.n) if indices is None else np.asarray(indices, dtype=np.int64)
         u, _ = self._bearing(self._room[idx, self.dx:self.dx + self.dc])
-        return self._vector(self.inner.predict_loo(idx), u, self.frame.y, back=True)
+        return self._vector(self.inner.predict_loo(idx, neighbours), u, self.frame.y,
+                            back=True)
 
     def infer(self, y_goal: np.ndarray, c: np.ndarray | None = None, *,
               n_candidates: int | None = None) -> InverseResult:

@@ -26,9 +26,15 @@ Every local fit is vectorised over queries: one stacked `np.linalg.solve`. With 
 neighbours than unknowns the fit drops the context slopes, then all slopes (the mean).
 
 How many neighbours a forward fit takes can be chosen by the model's own rows (`k_choices`):
-each time its rows have doubled (from `_CHOOSE_FROM`), the candidate whose leave-one-out error
-is least becomes its neighbourhood. Ten noisy pushes in contact fitted a slope that sent a
-push 5° off the line 40° off in prediction, and a planner steering on that model could not.
+each time its rows have doubled (from `_CHOOSE_FROM`), the candidate that predicts its rows
+best from other moments becomes its neighbourhood. Ten noisy pushes in contact fitted a slope
+that sent a push 5° off the line 40° off in prediction, and a planner steering on that model
+could not. Other moments: rows come in the order they were recorded, and the `MOMENT_ROWS`
+stored just before and after a row — the actions around it, of the same pursuit — are left
+out of its prediction (h-block cross-validation, Burman, Chow & Nolan 1994). Plain
+leave-one-out predicts a row from those near-copies of itself, and so always chose the
+smallest neighbourhood: the arm's effector model, 0.5 cm off its rows left out one by one,
+is 2.0 cm off rows of other moments with 10 neighbours and 1.5 with 60.
 
 Everything is deterministic; `state()` / `from_state()` rebuild a model answering bit-identically.
 
@@ -73,6 +79,11 @@ ones in the last bit, so that near-ties at the k-th place still resolve as the s
 _CHOOSE_FROM = 32
 """Rows from which a model with `k_choices` first chooses its forward neighbourhood; it
 chooses again each time its rows have doubled since."""
+MOMENT_ROWS = 8
+"""Rows stored within this many of a row are of its moment (the actions just before and after
+it), left out of its prediction when the neighbourhood is chosen (`LocalLinearModel._choose_k`):
+one random-action sequence's length (`learner.random_sequence_length`'s default), a few
+actions of a pursuit."""
 
 _FORWARD, _INVERSE, _OUTCOME = "forward", "inverse", "outcome"
 _INDEXES = (_FORWARD, _INVERSE, _OUTCOME)
@@ -216,7 +227,8 @@ class Model(Protocol):
 
     def predict(self, x: np.ndarray, c: np.ndarray | None = None) -> np.ndarray: ...
 
-    def predict_loo(self, indices: np.ndarray | Sequence[int] | None = None) -> np.ndarray: ...
+    def predict_loo(self, indices: np.ndarray | Sequence[int] | None = None,
+                    neighbours: int | None = None) -> np.ndarray: ...
 
     def infer(self, y_goal: np.ndarray, c: np.ndarray | None = None, *,
               n_candidates: int | None = None) -> InverseResult: ...
@@ -349,9 +361,10 @@ class LocalLinearModel:
 
     def _choose_k(self) -> None:
         """Take as `k_fit` the neighbourhood of `k_choices` whose forward fits predict the rows
-        left out best (mean error; the first of equals)."""
+        best from other moments (mean error; the first of equals): each row without the
+        `MOMENT_ROWS` stored before and after it (see the module doc)."""
         y = self._data[:self._n, self.dx + self.dc:]
-        errors = [float(np.mean(np.linalg.norm(self._loo(None, k) - y, axis=1)))
+        errors = [float(np.mean(np.linalg.norm(self._loo(None, k, MOMENT_ROWS) - y, axis=1)))
                   for k in self.k_choices]
         self.k_fit = self.k_choices[int(np.argmin(errors))]
         self._chosen_at = self._n
@@ -380,27 +393,40 @@ class LocalLinearModel:
         """Local dy/dx (Q, dy, dx) of the forward model at (x, c), from the same local fits."""
         return self._jacobian_of(self._fit_at(x, c))
 
-    def predict_loo(self, indices: np.ndarray | Sequence[int] | None = None) -> np.ndarray:
-        """Leave-one-out predictions (len(indices), dy) of stored rows (all rows by default).
+    def predict_loo(self, indices: np.ndarray | Sequence[int] | None = None,
+                    neighbours: int | None = None) -> np.ndarray:
+        """Leave-one-out predictions (len(indices), dy) of stored rows (all rows by default),
+        by forward fits of the model's own neighbourhood or of `neighbours`.
 
         Each row is left out of its own neighbourhood (if it has duplicates, they stay).
         """
         if self._n < 2:
             raise ValueError(f"leave-one-out needs at least 2 rows, the model has {self._n}")
-        return self._loo(indices, self.k_fit)
+        return self._loo(indices, self.k_fit if neighbours is None else neighbours)
 
-    def _loo(self, indices: np.ndarray | Sequence[int] | None, k_fit: int) -> np.ndarray:
-        """`predict_loo` with forward fits of `k_fit` neighbours."""
+    def _loo(self, indices: np.ndarray | Sequence[int] | None, k_fit: int,
+             window: int = 0) -> np.ndarray:
+        """`predict_loo` with forward fits of `k_fit` neighbours; with a `window`, the rows
+        stored within it of a row are left out of its neighbourhood too, as long as enough
+        others remain (they fill in, nearest first; the row itself never)."""
         idx = np.arange(self._n) if indices is None else np.asarray(indices, dtype=np.int64)
         if idx.size == 0:
             return np.empty((0, self.dy))
         z = self._data[idx][:, :self.dx + self.dc]
         k = min(k_fit, self._n - 1)
-        dist, nb = self._query(_FORWARD, z, k + 1)
-        drop = nb == idx[:, None]
-        drop[~drop.any(axis=1), -1] = True  # self not among the k+1 (duplicates): drop the last
-        keep = ~drop
-        dist, nb = dist[keep].reshape(idx.size, k), nb[keep].reshape(idx.size, k)
+        if window <= 0:
+            dist, nb = self._query(_FORWARD, z, k + 1)
+            drop = nb == idx[:, None]
+            drop[~drop.any(axis=1), -1] = True  # self not among the k+1 (duplicates): the last
+            keep = ~drop
+            dist, nb = dist[keep].reshape(idx.size, k), nb[keep].reshape(idx.size, k)
+            return self._local_fit(z, dist, nb).value
+        dist, nb = self._query(_FORWARD, z, min(k + 2 * window + 1, self._n))
+        own = nb == idx[:, None]
+        near = np.abs(nb - idx[:, None]) <= window
+        # Others first (nearest first), then rows of the same moment, the row itself last.
+        order = np.argsort(near.astype(np.int8) + 2 * own, axis=1, kind="stable")[:, :k]
+        dist, nb = np.take_along_axis(dist, order, 1), np.take_along_axis(nb, order, 1)
         return self._local_fit(z, dist, nb).value
 
     def _fit_at(self, x: np.ndarray, c: np.ndarray | None) -> _LocalFit:

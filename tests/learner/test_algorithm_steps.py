@@ -345,11 +345,28 @@ def test_an_affordances_competence_measures_its_errors_against_the_range_of_its_
         return model_competence(aff.model, zero_eps=cfg.zero_eps,
                                 sharpness=cfg.competence_sharpness,
                                 max_rows=cfg.competence_rows, rng=np.random.default_rng(3),
-                                scale=scale).competence
+                                scale=scale, neighbours=cfg.k_forward).competence
 
     ranged = scored(range_scale(y, cfg.zero_eps))
     assert abs(ranged - scored(None)) > 0.01  # the premise: the two scales score apart
     assert room.fitter.competence(aff.model, np.random.default_rng(3)) == pytest.approx(ranged)
+
+
+def test_a_competence_is_scored_with_the_trials_neighbourhood_whatever_the_models_own():
+    """Every competence leaves rows out with `k_forward` neighbours, the context trials'
+    neighbourhood: a model that chose a wider one to predict with scores as the same rows
+    fitted with `k_forward` do, and its predictions are its own neighbourhood's."""
+    room = Room()
+    t = room.moves(np.random.default_rng(1), 300)
+    wide = room.affordance(t, (ROBOT_HEADING,), add=False)
+    narrow = room.fitter.fit(wide.input, wide.output, wide.contexts, room.rows(t), trial=True)
+    inner = wide.model.inner
+    inner.k_fit = 60
+    assert narrow.params()["k_choices"] == () and room.config.k_forward == 10
+    score = room.fitter.competence
+    assert score(wide.model, np.random.default_rng(2)) == \
+        score(narrow, np.random.default_rng(2))
+    assert not np.allclose(wide.model.predict_loo(), narrow.predict_loo())
 
 
 def test_the_candidate_rows_of_a_growing_d_are_those_of_the_whole_d():

@@ -577,3 +577,39 @@ def test_a_driver_that_needs_a_tool_is_passed_over_for_the_next_when_none_is_bou
     goal = np.array([0.8, 0.2])
     assert controller.act(room.obs, controller.pursue(push, Binding(target=1), goal,
                                                       room.obs)) is not None
+
+
+def _stuck_forward(room: Room, drive, goal: np.ndarray, actions: int):
+    """A pursuit of `goal` by the hand-built drive (accurate: `Room.moves`' law) from the
+    origin facing +x, in a world where the robot is held (pressed against something no
+    observation holds, as an arm's joint at its limit): every action only slips it 2 mm
+    sideways, without turning it. Returns the actions taken."""
+    room.place("robot", [0.0, 0.0])
+    room.set("robot", Property.HEADING, [1.0, 0.0])
+    controller = room.learner.controller
+    pursuit = controller.pursue(drive, Binding(), goal, room.obs)
+    taken = []
+    for _ in range(actions):
+        action = controller.act(room.obs, pursuit)
+        if action is None:
+            break
+        taken.append(tuple(action))
+        here = room.obs[room.layout.space("robot", Property.POSITION).slice]
+        room.place("robot", here + [0.0, 0.002])
+    return taken
+
+
+def test_a_command_that_did_not_do_what_its_model_said_is_not_asked_again_there():
+    """The drive's model says full forward moves the robot 5 cm towards its goal; the world
+    barely moves it. The pursuit keeps what its commands did: it does not ask a command
+    again from within half a step of where it did nothing (without that, the search asks
+    full forward at every action), and a new pursuit starts without what the last one
+    learned."""
+    room = Room()
+    drive = room.affordance(room.moves(np.random.default_rng(3), 300),
+                            contexts=(ROBOT_HEADING,))
+    goal = np.array([0.5, 0.0])
+    taken = _stuck_forward(room, drive, goal, 6)
+    assert taken and taken[0] == (1.0, 1.0)
+    assert len(set(taken)) == len(taken), taken
+    assert _stuck_forward(room, drive, goal, 1) == [(1.0, 1.0)]
