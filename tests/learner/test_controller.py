@@ -13,6 +13,7 @@ import pytest
 from handmade import (
     ROBOT_HEADING,
     ROBOT_LIDAR,
+    STEP,
     TARGET_POSITION,
     TARGET_ROBOT,
     TOOL_POSITION,
@@ -20,7 +21,7 @@ from handmade import (
     world_learner,
 )
 
-from hadim_cli.config import load_config
+from hadim_cli.config import PlannerConfig, load_config
 from hadim_cli.evaluation.exact import exact_levels
 from hadim_cli.evaluation.runner import evaluate
 from hadim_cli.evaluation.tasks import load_task
@@ -613,3 +614,29 @@ def test_a_command_that_did_not_do_what_its_model_said_is_not_asked_again_there(
     assert taken and taken[0] == (1.0, 1.0)
     assert len(set(taken)) == len(taken), taken
     assert _stuck_forward(room, drive, goal, 1) == [(1.0, 1.0)]
+
+
+def test_a_command_that_did_less_than_its_model_said_but_still_the_most_is_asked_again():
+    """The world moves the robot a fifth of what the drive's model says (forward 1 cm where
+    the model says 5 cm, turns a fifth as far). What the pursuit remembers is what each
+    command did, not that it did nothing: full forward, which did less than predicted but
+    still brings the robot closest to its goal, is asked again at every action (a
+    remembered change of zero turns the robot away instead). The grid is the box's corners."""
+    room = Room()
+    corners = Controller(room.hierarchy, room.learner.reader, room.config,
+                         PlannerConfig(commands=2))
+    drive = room.affordance(room.moves(np.random.default_rng(3), 300),
+                            contexts=(ROBOT_HEADING,))
+    room.place("robot", [0.0, 0.0])
+    room.set("robot", Property.HEADING, [1.0, 0.0])
+    pursuit = corners.pursue(drive, Binding(), np.array([0.5, 0.0]), room.obs)
+    taken = []
+    for _ in range(4):
+        action = corners.act(room.obs, pursuit)
+        taken.append(tuple(action))
+        heading = room.obs[room.layout.space("robot", Property.HEADING).slice]
+        theta = np.arctan2(heading[1], heading[0]) + 0.2 * 0.3 * (action[1] - action[0])
+        here = room.obs[room.layout.space("robot", Property.POSITION).slice]
+        room.place("robot", here + 0.2 * STEP * action.mean() * heading)
+        room.set("robot", Property.HEADING, [np.cos(theta), np.sin(theta)])
+    assert taken == [(1.0, 1.0)] * 4

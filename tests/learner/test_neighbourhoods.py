@@ -74,6 +74,20 @@ def test_the_neighbourhood_is_chosen_on_rows_of_other_moments() -> None:
     assert loo[5] < loo[30]  # what plain leave-one-out would have chosen
 
 
+@pytest.mark.parametrize("seed", range(3))
+def test_a_row_is_never_among_its_own_neighbours_when_rows_of_its_moment_fill_in(seed) -> None:
+    """32 rows of noise in 20 inputs, choices 5 and 31: 31 neighbours need rows of the same
+    moment to fill in (only 15 others lie outside a middle row's window), but never the row
+    itself. Without it a fit of 21 unknowns on the 31 others predicts the row badly, worse
+    than the mean of five: five are chosen. With the row among its neighbours the wide fit
+    nearly passes through it and would win."""
+    rng = np.random.default_rng(seed)
+    x, y = rng.uniform(-1.0, 1.0, (32, 20)), rng.normal(0.0, 1.0, (32, 1))
+    model = LocalLinearModel(20, 1, k_forward=10, k_choices=(5, 31))
+    model.add(x, None, y)
+    assert model.k_fit == 5
+
+
 def test_without_choices_the_neighbourhood_stays_k_forward() -> None:
     x, y = noisy_line(np.random.default_rng(4), 300)
     model = LocalLinearModel(1, 1, k_forward=10)

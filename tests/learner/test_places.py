@@ -146,3 +146,41 @@ def test_a_level_acts_from_the_relation_of_its_mover_to_its_body():
     levels = room.learner.controller.chain(push, Binding(target=1))
     assert [lv.affordance for lv in levels] == [push, drive]
     assert levels[0].relation == context_slices(push)[1] and levels[1].relation is None
+
+
+def _place_between(second_gap: float) -> tuple[float, float, float]:
+    """Forty pushes along +x by 0.05 ± 0.002·j, j = 1…20: j = 1 from a gap of 0.30, j = 2
+    from `second_gap`, the rest from far off. Returns the place's distance ahead of the
+    target wanted for a push of 0.05 (k = 4: the eight nearest rows and mirror images,
+    j = 1 and 2), and the relations j = 1 and j = 2 were seen in."""
+    room = Room()
+    pushes = [(0.30 if j == 1 else second_gap if j == 2 else (0.2 if j % 2 else 0.5),
+               WANTED[0] + sign * 0.002 * j) for j in range(1, 21) for sign in (1, -1)]
+    t, before = _pushes(room, pushes)
+    rows = Rows(t, np.full(t.size, 1, dtype=np.int64), np.full(t.size, -1, dtype=np.int64))
+    push = room.fitter.new_affordance(room.hierarchy.allocate_id(), ROBOT_POSITION,
+                                      TARGET_POSITION, (TARGET_ROBOT,), rows, len(room.dataset),
+                                      np.random.default_rng(0))
+    seen = room.learner.reader.read_each((TARGET_ROBOT,), before, 1, -1)
+    need, _ = needed_context(push, WANTED, np.array([0.25, 0.1]), np.array([True]),
+                             zero_eps=1e-4, k=4, support=0.1, agreement=0.4)
+    assert need[1] == pytest.approx(0.0, abs=1e-9)
+    return float(need[0]), float(seen[0, 0]), float(seen[2, 0])
+
+
+def test_rows_near_the_wanted_outcome_seen_from_a_place_far_from_the_densest_do_not_vote_in():
+    """The four rows nearest the wanted push were seen 0.30 m off in the target's scale
+    (about two of its units, beyond `agreement`) from the next four: the place is the
+    nearest four's relation alone, not a blend of the two."""
+    need, first, second = _place_between(0.60)
+    assert second - first == pytest.approx(0.30)
+    assert need == pytest.approx(first, abs=1e-9)
+
+
+def test_rows_that_agree_on_the_place_weigh_by_how_near_the_wanted_outcome_they_moved():
+    """The nearest four seen from 0.30, the next four from 0.34 (within `agreement`): both
+    fit the place, the nearer more (their closeness relative to the median distance of the
+    eight): the place lies nearer the first relation than the middle of the two."""
+    need, first, second = _place_between(0.34)
+    assert second - first == pytest.approx(0.04)
+    assert first < need < first + 0.3 * (second - first)
