@@ -281,7 +281,8 @@ class LearnerConfig:
     random_sequence_length: int = 8
     """Primitive actions of one random-action learning episode (motor babbling)."""
     k_forward: int = 10
-    """Neighbours of the forward model's local linear fit (until `k_choices` chose one)."""
+    """Neighbours of the forward model's local linear fit (until `k_choices` chose one), and
+    of every competence's fits (`Fitter.competence`: trials and affordances alike)."""
     k_choices: tuple[int, ...] = (10, 20, 30, 60)
     """Neighbourhoods each model's forward fits may take: whenever its rows have doubled
     (from 32), the one that predicts them best from other moments (each row without the

@@ -131,13 +131,12 @@ class _Plan:
 
 
 class _Found(NamedTuple):
-    """What one search found: the command to take (None: none allowed) and its sequence's
-    estimated actions; the estimate from the observation (`now`), what the pursuit learned
-    raises it by there, and each level's gap and the label for the trace."""
+    """What one search found: the command to take (its index in `Controller.commands`, -1:
+    none allowed) and its sequence's estimated actions; the estimate from the observation
+    (`now`), what the pursuit learned raises it by there, and each level's gap and the label
+    for the trace."""
 
-    action: np.ndarray | None
     command: int
-    """The action's index in `Controller.commands` (-1 with no action)."""
     predicted: float
     now: float
     raised: float
@@ -280,8 +279,9 @@ class Controller:
             pursuit.first = here
         elif here > pursuit.budget - pursuit.used and here > pursuit.first:
             return None  # lost ground since it began, and not expected within the actions left
-        if found.action is None:
+        if found.command < 0:
             return None
+        action = self.commands[found.command].copy()
         # What the estimate here fell short by is learned, so that a state the search keeps
         # coming back to looks as far as it proved to be.
         if found.predicted > here + 1e-9:
@@ -290,9 +290,9 @@ class Controller:
         pursuit.last = (obs.copy(), found.command)
         pursuit.used += 1
         if self.observer is not None:
-            self.observer(Decision(found.action.copy(), found.now, found.predicted, found.label,
+            self.observer(Decision(action.copy(), found.now, found.predicted, found.label,
                                    found.gaps))
-        return found.action
+        return action
 
     def reach(self, aff: Affordance, binding: Binding, goal: np.ndarray, actuator: Actuator,
               budget: int) -> Attempt:
@@ -605,9 +605,8 @@ class Controller:
             keep = np.argsort(total, kind="stable")[:self.pc.beam]
             states, first = after[keep], origin[keep]
         if best is None:
-            return _Found(None, -1, np.inf, now, here_raised, gaps, label)
-        return _Found(self.commands[best[1]].copy(), best[1], best[0], now, here_raised,
-                      gaps, label)
+            return _Found(-1, np.inf, now, here_raised, gaps, label)
+        return _Found(best[1], best[0], now, here_raised, gaps, label)
 
     def _key(self, arr: np.ndarray, plan: _Plan) -> np.ndarray:
         """Where the chain's bodies are in each observation of `arr`, in actions: positions

@@ -179,9 +179,6 @@ def render_scene(source: Observable | np.ndarray, path: Path | str, *,
         obs, layout = source.observe(), source.layout
         if source.config.body is Body.ARM:
             arm = arm or source.config.arm
-    is_arm = draws_arm(layout)
-    if is_arm and arm is None:
-        raise ValueError("rendering an arm's observation needs its config (arm=)")
     half_w, half_h = layout.space(layout.actor, Property.POSITION).high
     fig = Figure(figsize=(6, 6), dpi=120)
     ax = fig.add_subplot()
